@@ -1,0 +1,62 @@
+"""Small rigid-transform helpers shared by every stage.
+
+Planar poses are ``np.array([x, y, yaw])`` (metres, radians, yaw counter-clockwise from
++x). 3D transforms are 4x4 homogeneous matrices. Functions accept single poses ``(3,)``
+or stacks ``(N, 3)`` where noted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles to [-pi, pi)."""
+    return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def se2_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a (+) b``: apply the body-frame motion ``b`` at pose ``a`` (both ``(..., 3)``)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
+    y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
+    return np.stack([x, y, wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
+
+
+def se2_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a^-1 (+) b``: the motion from pose ``a`` to pose ``b`` in ``a``'s body frame."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    dx, dy = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
+    return np.stack(
+        [c * dx + s * dy, -s * dx + c * dy, wrap_angle(b[..., 2] - a[..., 2])], axis=-1
+    )
+
+
+def se2_to_matrix(pose: np.ndarray, z: float = 0.0) -> np.ndarray:
+    """4x4 transform of a planar pose lifted to height ``z``."""
+    x, y, yaw = (float(v) for v in pose)
+    c, s = np.cos(yaw), np.sin(yaw)
+    T = np.eye(4)
+    T[:2, :2] = [[c, -s], [s, c]]
+    T[:3, 3] = [x, y, z]
+    return T
+
+
+def matrix_to_se2(T: np.ndarray) -> np.ndarray:
+    """Planar ``[x, y, yaw]`` of a 4x4 transform (drops z, roll, pitch)."""
+    return np.array([T[0, 3], T[1, 3], np.arctan2(T[1, 0], T[0, 0])])
+
+
+def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Apply a 4x4 transform to ``(N, 3)`` points."""
+    return points @ T[:3, :3].T + T[:3, 3]
+
+
+def rotation_2d(yaw: float) -> np.ndarray:
+    """2x2 rotation matrix."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s], [s, c]])
