@@ -132,10 +132,16 @@ class Geometry2D:
             disc_height=np.array([c.height for c in cyl], dtype=float),
         )
 
-    def signed_distance(self, xy: np.ndarray) -> np.ndarray:
-        """Distance from points ``(..., 2)`` to the nearest solid; negative inside one."""
+    def signed_distance(self, xy: np.ndarray, chunk: int = 65536) -> np.ndarray:
+        """Distance from points ``(..., 2)`` to the nearest solid; negative inside one.
+
+        Works in chunks of ``chunk`` points to bound the (points x solids) temporaries.
+        """
         xy = np.asarray(xy, dtype=float)
         flat = xy.reshape(-1, 2)
+        if len(flat) > chunk:
+            parts = [self.signed_distance(flat[i : i + chunk]) for i in range(0, len(flat), chunk)]
+            return np.concatenate(parts).reshape(xy.shape[:-1])
         best = np.full(len(flat), np.inf)
         if len(self.rect_centers):
             best = np.minimum(best, self._rect_distance(flat).min(axis=1))

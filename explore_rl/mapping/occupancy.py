@@ -1,0 +1,226 @@
+"""2D ground-plane occupancy from 3D LiDAR scans.
+
+Each 3D scan is first collapsed into a per-azimuth 2D scan (:func:`collapse_scan`):
+points near the floor are free-space evidence, points in the obstacle height band are
+obstacles, points above are ignored. The 2D scans are integrated into a log-odds grid
+(:class:`OccupancyGrid`) by sampling every beam at sub-cell steps; each cell is updated
+at most once per scan. Keyframes keep their :class:`Scan2D` so the grid can be rebuilt
+when loop closures move the poses (:func:`needs_rebuild`, :meth:`OccupancyGrid.rebuild`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from explore_rl.geometry import wrap_angle
+from explore_rl.grid import GridSpec
+from explore_rl.mapping.config import OccupancyConfig
+
+
+@dataclass
+class Scan2D:
+    """A horizontal scan in the sensor frame, one beam per azimuth bin.
+
+    ``ranges`` are horizontal distances from the sensor's xy; ``hit`` says whether the
+    beam ends on an obstacle (else everything up to the range is free). A range of 0
+    means the bin carries no information.
+    """
+
+    angles: np.ndarray  # (B,) bin-centre azimuths, rad, counter-clockwise from sensor +x
+    ranges: np.ndarray  # (B,) metres
+    hit: np.ndarray  # (B,) bool
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Bins that carry information."""
+        return self.ranges > 0.0
+
+    def __len__(self) -> int:
+        return len(self.angles)
+
+
+def azimuth_bin_centres(n_bins: int) -> np.ndarray:
+    """Centres of ``n_bins`` equal azimuth bins covering [-pi, pi)."""
+    width = 2.0 * np.pi / n_bins
+    return -np.pi + (np.arange(n_bins) + 0.5) * width
+
+
+def azimuth_bin_index(xy: np.ndarray, n_bins: int) -> np.ndarray:
+    """Azimuth bin of each horizontal vector ``xy[..., 2]`` (bins as in :func:`azimuth_bin_centres`)."""
+    azimuth = np.arctan2(xy[..., 1], xy[..., 0])
+    index = np.floor((azimuth + np.pi) * (n_bins / (2.0 * np.pi))).astype(np.int64)
+    return np.mod(index, n_bins)
+
+
+def no_return_clearance(
+    directions: np.ndarray, sensor_height: float, config: OccupancyConfig
+) -> np.ndarray:
+    """Horizontal distance a ray without return proves free in the obstacle height band.
+
+    The ray is free up to ``max_range``; it only says something about obstacles while it
+    stays between the floor and ``obstacle_max_height``, so upward rays clear only up to
+    where they leave the band. (A downward ray without return ended before the floor.)
+    A sensor mounted outside the band gets no clearance from such rays.
+    """
+    directions = np.asarray(directions, dtype=float).reshape(-1, 3)
+    horizontal = np.hypot(directions[:, 0], directions[:, 1])
+    rise = directions[:, 2]
+    headroom = config.obstacle_max_height - sensor_height
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exit_top = np.where(rise > 0.0, headroom * horizontal / rise, np.inf)
+    clearance = np.minimum(config.max_range * horizontal, exit_top)
+    if not 0.0 <= sensor_height <= config.obstacle_max_height:
+        clearance[:] = 0.0
+    return clearance
+
+
+def collapse_scan(
+    points_sensor: np.ndarray,
+    no_return_dirs: np.ndarray,
+    sensor_height: float,
+    config: OccupancyConfig | None = None,
+) -> Scan2D:
+    """Collapse a 3D scan (sensor frame, gravity-aligned) into a per-azimuth :class:`Scan2D`.
+
+    Per bin: the nearest obstacle point (``hit=True``), else the farthest free evidence —
+    floor points and rays without return (:func:`no_return_clearance`); bins with
+    neither get range 0 (unknown).
+    """
+    config = config or OccupancyConfig()
+    n_bins = config.azimuth_bins
+    points = np.asarray(points_sensor, dtype=float).reshape(-1, 3)
+    z_base = points[:, 2] + sensor_height
+    horizontal = np.hypot(points[:, 0], points[:, 1])
+    bins = azimuth_bin_index(points[:, :2], n_bins)
+
+    is_obstacle = (z_base >= config.obstacle_min_height) & (z_base <= config.obstacle_max_height)
+    nearest_obstacle = np.full(n_bins, np.inf)
+    np.minimum.at(nearest_obstacle, bins[is_obstacle], horizontal[is_obstacle])
+
+    is_floor = z_base < config.floor_max_height
+    farthest_free = np.zeros(n_bins)
+    np.maximum.at(farthest_free, bins[is_floor], horizontal[is_floor])
+
+    dirs = np.asarray(no_return_dirs, dtype=float).reshape(-1, 3)
+    clearance = no_return_clearance(dirs, sensor_height, config)
+    pass
+
+    hit = np.isfinite(nearest_obstacle)
+    ranges = np.where(hit, nearest_obstacle, farthest_free)
+    return Scan2D(azimuth_bin_centres(n_bins), ranges, hit)
+
+
+class OccupancyGrid:
+    """Log-odds occupancy on a :class:`GridSpec` (``[iy, ix]`` indexing)."""
+
+    def __init__(self, grid: GridSpec, config: OccupancyConfig | None = None) -> None:
+        self.grid = grid
+        self.config = config or OccupancyConfig()
+        self.log_odds = np.zeros(grid.shape, dtype=np.float32)
+
+    # --- queries -------------------------------------------------------------------
+    @property
+    def known_free(self) -> np.ndarray:
+        return self.log_odds < self.config.free_threshold
+
+    @property
+    def known_occupied(self) -> np.ndarray:
+        return self.log_odds > self.config.occupied_threshold
+
+    @property
+    def unknown(self) -> np.ndarray:
+        return ~(self.known_free | self.known_occupied)
+
+    # --- updates -------------------------------------------------------------------
+    def reset(self) -> None:
+        self.log_odds[:] = 0.0
+
+    def integrate(self, scan: Scan2D, pose_se2: np.ndarray) -> None:
+        """Add one 2D scan taken at the sensor's planar pose ``[x, y, yaw]``."""
+        free, occupied = self.beam_cells(scan, pose_se2)
+        flat = self.log_odds.reshape(-1)
+        flat[free] += self.config.log_odds_free
+        flat[occupied] += self.config.log_odds_occupied
+        touched = np.concatenate([free, occupied])
+        flat[touched] = np.clip(flat[touched], self.config.log_odds_min, self.config.log_odds_max)
+
+    def rebuild(self, scans: Sequence[Scan2D], poses: np.ndarray) -> None:
+        """Clear the grid and re-integrate every scan at its (possibly corrected) pose."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        if len(scans) != len(poses):
+            raise ValueError(f"{len(scans)} scans but {len(poses)} poses")
+        self.reset()
+        for scan, pose in zip(scans, poses):
+            self.integrate(scan, pose)
+
+    def needs_rebuild(self, old_poses: np.ndarray, new_poses: np.ndarray) -> bool:
+        """:func:`needs_rebuild` with this grid's resolution and range."""
+        return needs_rebuild(old_poses, new_poses, self.grid.resolution, self.config.max_range)
+
+    # --- ray tracing ---------------------------------------------------------------
+    def beam_cells(self, scan: Scan2D, pose_se2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Flat indices of the cells a scan sees free and occupied (sorted, disjoint).
+
+        Works in cell units: every beam is sampled each ``ray_step_cells`` up to its
+        range; a hit end cell is occupied and never free in the same scan.
+        """
+        res = self.grid.resolution
+        x, y, yaw = (float(v) for v in pose_se2)
+        origin = ((x - self.grid.origin[0]) / res, (y - self.grid.origin[1]) / res)
+        keep = scan.valid
+        ranges = scan.ranges[keep] / res
+        hit = scan.hit[keep]
+        angles = scan.angles[keep] + yaw
+        cos, sin = np.cos(angles), np.sin(angles)
+
+        step = self.config.ray_step_cells
+        t = np.arange(int(np.ceil(ranges.max() / step)) if len(ranges) else 0) * step
+        before_end = t[None, :] < ranges[:, None]
+        free = self._mark(
+            (origin[0] + cos[:, None] * t)[before_end], (origin[1] + sin[:, None] * t)[before_end]
+        )
+        free |= self._mark(origin[0] + cos[~hit] * ranges[~hit], origin[1] + sin[~hit] * ranges[~hit])
+        hit_range = ranges[hit] + self.config.hit_nudge_cells
+        occupied = self._mark(origin[0] + cos[hit] * hit_range, origin[1] + sin[hit] * hit_range)
+        free &= ~occupied
+        return np.flatnonzero(free), np.flatnonzero(occupied)
+
+    def _mark(self, cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+        """Flat boolean mask of the in-bounds cells holding points given in cell units."""
+        ny, nx = self.grid.shape
+        ix = np.floor(cx).astype(np.int64)
+        iy = np.floor(cy).astype(np.int64)
+        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        mask = np.zeros(ny * nx, dtype=bool)
+        mask[iy[inside] * nx + ix[inside]] = True
+        return mask
+
+
+def needs_rebuild(
+    old_poses: np.ndarray, new_poses: np.ndarray, resolution: float, max_range: float
+) -> bool:
+    """True if any pose present in both moved more than one cell, or turned enough to
+    move a beam end at ``max_range`` by more than one cell (``resolution / max_range`` rad)."""
+    old = np.asarray(old_poses, dtype=float).reshape(-1, 3)
+    new = np.asarray(new_poses, dtype=float).reshape(-1, 3)
+    k = min(len(old), len(new))
+    if k == 0:
+        return False
+    shift = np.linalg.norm(new[:k, :2] - old[:k, :2], axis=1)
+    turn = np.abs(wrap_angle(new[:k, 2] - old[:k, 2]))
+    return bool(np.any(shift > resolution) or np.any(turn > resolution / max_range))
+
+
+def explored_fraction(occupancy: OccupancyGrid, truth_free: np.ndarray) -> float:
+    """Known cells (free or occupied) inside the true free set F, over |F| (0 if F is empty)."""
+    truth_free = np.asarray(truth_free, dtype=bool)
+    if truth_free.shape != occupancy.grid.shape:
+        raise ValueError(f"truth mask {truth_free.shape} != grid {occupancy.grid.shape}")
+    total = int(truth_free.sum())
+    if total == 0:
+        return 0.0
+    known = ~occupancy.unknown
+    return float((known & truth_free).sum()) / total

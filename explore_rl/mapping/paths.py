@@ -1,0 +1,211 @@
+"""Traversability and shortest paths on the 2D grid.
+
+Obstacles (known-occupied cells) are inflated by the robot radius; unknown cells are not
+traversable. One ``scipy.sparse.csgraph.dijkstra`` from the robot's cell gives the
+distance to, and the path to, every cell (:class:`DistanceField`). The 8-connected
+grid graph is built once per map with vectorised numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
+
+from explore_rl.grid import GridSpec
+from explore_rl.mapping.config import PathConfig
+
+# The 8 neighbours (dy, dx) in increasing flat-index order, so CSR rows come out sorted.
+_NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+
+
+def traversability(
+    known_free: np.ndarray,
+    known_occupied: np.ndarray,
+    grid: GridSpec,
+    robot_radius: float,
+    config: PathConfig | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Traversable mask and per-cell cost (``inf`` where not traversable).
+
+    A cell is traversable if known free and farther than ``robot_radius +
+    inflation_margin`` from every known-occupied cell (centre to centre). Its cost is
+    ``1 + clearance_weight * exp(-c / clearance_scale)``, ``c`` = clearance beyond that
+    inflation radius, so paths keep away from walls.
+    """
+    config = config or PathConfig()
+    known_free = np.asarray(known_free, dtype=bool)
+    known_occupied = np.asarray(known_occupied, dtype=bool)
+    if known_occupied.any():
+        clearance = ndimage.distance_transform_edt(~known_occupied) * grid.resolution
+    else:
+        clearance = np.full(grid.shape, np.inf)
+    inflated_radius = robot_radius + config.inflation_margin
+    traversable = known_free & ~known_occupied & (clearance > inflated_radius)
+    extra = np.maximum(clearance - inflated_radius, 0.0)
+    cost = 1.0 + config.clearance_weight * np.exp(-extra / config.clearance_scale)
+    cost = np.where(traversable, cost, np.inf)
+    return traversable, cost
+
+
+def grid_graph(
+    traversable: np.ndarray, cost: np.ndarray, resolution: float, allow_corner_cutting: bool = False
+) -> sparse.csr_matrix:
+    """8-connected graph over all cells (flat index), edges between traversable cells only.
+
+    Edge weight = step length x mean of the two cell costs. Without corner cutting a
+    diagonal step also needs both cells beside it traversable. Both directions are
+    stored; the CSR arrays are assembled directly (no COO sort).
+    """
+    ny, nx = traversable.shape
+    padded = np.pad(traversable, 1, constant_values=False)
+    padded_cost = np.pad(cost, 1, constant_values=np.inf)
+
+    def shifted(array: np.ndarray, dy: int, dx: int) -> np.ndarray:
+        return array[1 + dy : 1 + dy + ny, 1 + dx : 1 + dx + nx]
+
+    valid = np.empty((ny, nx, len(_NEIGHBOURS)), dtype=bool)
+    weights = np.empty((ny, nx, len(_NEIGHBOURS)))
+    for k, (dy, dx) in enumerate(_NEIGHBOURS):
+        ok = traversable & shifted(padded, dy, dx)
+        diagonal = dy != 0 and dx != 0
+        if diagonal and not allow_corner_cutting:
+            ok &= shifted(padded, dy, 0) & shifted(padded, 0, dx)
+        step = resolution * (np.sqrt(2.0) if diagonal else 1.0)
+        valid[..., k] = ok
+        weights[..., k] = step * 0.5 * (cost + shifted(padded_cost, dy, dx))
+
+    n = ny * nx
+    offsets = np.array([dy * nx + dx for dy, dx in _NEIGHBOURS])
+    targets = np.arange(n)[:, None] + offsets[None, :]
+    valid = valid.reshape(n, -1)
+    indptr = np.concatenate([[0], np.cumsum(valid.sum(axis=1))])
+    return sparse.csr_matrix(
+        (weights.reshape(n, -1)[valid], targets[valid], indptr), shape=(n, n)
+    )
+
+
+@dataclass
+class DistanceField:
+    """Single-source shortest paths from ``start_cell`` over the grid graph."""
+
+    grid: GridSpec
+    start_cell: np.ndarray | None  # [iy, ix], None if the start was blocked
+    distances: np.ndarray  # (ny, nx) path cost, inf where unreachable
+    predecessors: np.ndarray  # (ny, nx) flat index of the previous cell, < 0 if none
+
+    @property
+    def reachable(self) -> np.ndarray:
+        return np.isfinite(self.distances)
+
+    def cost_to(self, cells: np.ndarray) -> np.ndarray:
+        """Path cost to each ``[..., (iy, ix)]`` cell (inf if unreachable or out of bounds)."""
+        cells = np.asarray(cells, dtype=np.int64)
+        inside = self.grid.in_bounds(cells)
+        safe = np.where(inside[..., None], cells, 0)
+        return np.where(inside, self.distances[safe[..., 0], safe[..., 1]], np.inf)
+
+    def path_cells(self, cell: np.ndarray) -> np.ndarray | None:
+        """Cells ``(K, 2)`` from the start to ``cell``, or None if unreachable."""
+        cell = np.asarray(cell, dtype=np.int64).reshape(2)
+        if not np.isfinite(self.cost_to(cell)):
+            return None
+        start = int(np.ravel_multi_index(tuple(self.start_cell), self.grid.shape))
+        flat_pred = self.predecessors.reshape(-1)
+        node = int(np.ravel_multi_index(tuple(cell), self.grid.shape))
+        chain = [node]
+        while node != start:
+            node = int(flat_pred[node])
+            chain.append(node)
+        return np.stack(np.unravel_index(np.array(chain[::-1]), self.grid.shape), axis=-1)
+
+    def path_to(self, cell: np.ndarray) -> np.ndarray | None:
+        """World xy waypoints ``(K, 2)`` (cell centres) from the start to ``cell``, or None."""
+        cells = self.path_cells(cell)
+        return None if cells is None else self.grid.cell_to_world(cells)
+
+    def path_to_xy(self, xy: np.ndarray) -> np.ndarray | None:
+        """:meth:`path_to` the cell holding world point ``xy``."""
+        return self.path_to(self.grid.world_to_cell(np.asarray(xy, dtype=float)))
+
+
+class PathPlanner:
+    """Dijkstra on one traversability map; build once per map, query from many starts."""
+
+    def __init__(
+        self,
+        grid: GridSpec,
+        traversable: np.ndarray,
+        cost: np.ndarray,
+        config: PathConfig | None = None,
+    ) -> None:
+        self.grid = grid
+        self.config = config or PathConfig()
+        self.traversable = np.asarray(traversable, dtype=bool)
+        if self.traversable.shape != grid.shape or np.shape(cost) != grid.shape:
+            raise ValueError(f"traversable/cost shapes must equal the grid shape {grid.shape}")
+        self.cost = np.asarray(cost, dtype=float)
+        self.graph = grid_graph(
+            self.traversable, self.cost, grid.resolution, self.config.allow_corner_cutting
+        )
+
+    def start_cell(self, start_xy: np.ndarray) -> np.ndarray | None:
+        """The start's cell, or the nearest traversable cell within ``start_snap_radius``."""
+        start_xy = np.asarray(start_xy, dtype=float)[:2]
+        cell = self.grid.world_to_cell(start_xy)
+        if self.grid.in_bounds(cell) and self.traversable[cell[0], cell[1]]:
+            return cell
+        radius = self.config.start_snap_radius
+        pad = int(np.ceil(radius / self.grid.resolution)) + 1
+        lo = np.maximum(cell - pad, 0)
+        hi = np.minimum(cell + pad + 1, self.grid.shape)
+        if np.any(hi <= lo):
+            return None
+        candidates = np.argwhere(self.traversable[lo[0] : hi[0], lo[1] : hi[1]]) + lo
+        if len(candidates) == 0:
+            return None
+        gaps = np.linalg.norm(self.grid.cell_to_world(candidates) - start_xy, axis=1)
+        best = int(np.argmin(gaps))
+        return candidates[best] if gaps[best] <= radius else None
+
+    def from_start(self, start_xy: np.ndarray) -> DistanceField:
+        """Shortest paths from the robot at ``start_xy`` to every cell (one Dijkstra)."""
+        cell = self.start_cell(start_xy)
+        if cell is None:
+            return DistanceField(
+                self.grid, None, np.full(self.grid.shape, np.inf), np.full(self.grid.shape, -1)
+            )
+        source = int(np.ravel_multi_index(tuple(cell), self.grid.shape))
+        distances, predecessors = csgraph.dijkstra(
+            self.graph, directed=True, indices=source, return_predecessors=True
+        )
+        return DistanceField(
+            self.grid, cell, distances.reshape(self.grid.shape), predecessors.reshape(self.grid.shape)
+        )
+
+
+def path_length(path: np.ndarray | None) -> float:
+    """Euclidean length of a polyline ``(K, 2)`` in metres (inf for None)."""
+    if path is None:
+        return float("inf")
+    path = np.asarray(path, dtype=float)
+    if len(path) < 2:
+        return 0.0
+    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+
+
+def simplify_path(path: np.ndarray, tolerance: float = 1e-9) -> np.ndarray:
+    """Drop interior waypoints that lie on a straight segment between their neighbours."""
+    path = np.asarray(path, dtype=float)
+    if len(path) < 3:
+        return path
+    before = path[1:-1] - path[:-2]
+    after = path[2:] - path[1:-1]
+    cross = before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0]
+    same_way = (before * after).sum(axis=1) > 0
+    scale = np.linalg.norm(before, axis=1) * np.linalg.norm(after, axis=1)
+    straight = (np.abs(cross) <= tolerance * np.maximum(scale, tolerance)) & same_way
+    keep = np.concatenate([[True], ~straight, [True]])
+    return path[keep]

@@ -1,0 +1,148 @@
+"""Revisit prediction: where a path would close a loop with an older keyframe.
+
+One predicate shared by the exploration graph, the EM planner and the model SLAM front
+end: a predicted pose within ``r_lc`` of an older keyframe's current estimate, with more
+than ``min_travel_gap`` of travel between them and line of sight on the 2D map. Each
+revisit keeps only its closest predicted pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from explore_rl.grid import GridSpec
+from explore_rl.planning.config import RevisitConfig
+from explore_rl.planning.virtual_map import line_of_sight
+
+
+@dataclass(frozen=True)
+class Revisit:
+    """Path pose ``path_index`` would close a loop with keyframe ``keyframe_index``."""
+
+    path_index: int
+    keyframe_index: int
+    distance: float  # m, between the predicted pose and the keyframe estimate
+
+
+def cumulative_length(path_xy: np.ndarray) -> np.ndarray:
+    """Arc length ``(P,)`` at each vertex of a polyline ``(P, 2)``, starting at 0."""
+    path_xy = np.asarray(path_xy, float).reshape(-1, 2)
+    seg = np.linalg.norm(np.diff(path_xy, axis=0), axis=1)
+    return np.r_[0.0, np.cumsum(seg)]
+
+
+def sample_path(
+    path_xy: np.ndarray, keyframe_spacing: float, include_start: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Planar poses ``(P, 3)`` every ``keyframe_spacing`` along a polyline and their arc
+    length ``(P,)`` from the path start.
+
+    Samples sit at ``s, 2s, ...`` and at the path end (the start too if
+    ``include_start``); yaw is the direction of travel of the segment each sample lies on
+    (the next segment at a vertex, the last segment at the end).
+    """
+    pts = np.asarray(path_xy, float).reshape(-1, 2)
+    if len(pts) > 1:
+        keep = np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]
+        pts = pts[keep]
+    if len(pts) < 2:
+        if include_start and len(pts) == 1:
+            return np.array([[pts[0, 0], pts[0, 1], 0.0]]), np.zeros(1)
+        return np.zeros((0, 3)), np.zeros(0)
+    vertex_s = cumulative_length(pts)
+    total = vertex_s[-1]
+    s = keyframe_spacing * np.arange(1, int(np.floor(total / keyframe_spacing)) + 1)
+    if len(s) == 0 or not np.isclose(s[-1], total):
+        s = np.r_[s, total]
+    if include_start:
+        s = np.r_[0.0, s]
+    seg = np.clip(np.searchsorted(vertex_s, s, side="right") - 1, 0, len(pts) - 2)
+    direction = np.diff(pts, axis=0)
+    unit = direction / np.linalg.norm(direction, axis=1)[:, None]
+    xy = pts[seg] + (s - vertex_s[seg])[:, None] * unit[seg]
+    yaw = np.arctan2(unit[seg, 1], unit[seg, 0])
+    return np.column_stack([xy, yaw]), s
+
+
+def sample_path_poses(
+    path_xy: np.ndarray, keyframe_spacing: float, include_start: bool = False
+) -> np.ndarray:
+    """Poses ``(P, 3)`` of :func:`sample_path` (without the arc lengths)."""
+    return sample_path(path_xy, keyframe_spacing, include_start)[0]
+
+
+def predict_revisits(
+    path_xy: np.ndarray,
+    keyframe_xy: np.ndarray,
+    keyframe_travel: np.ndarray,
+    current_travel: float,
+    blocked: np.ndarray,
+    grid: GridSpec,
+    config: RevisitConfig,
+    path_travel: np.ndarray | None = None,
+) -> list[Revisit]:
+    """Loop closures a path would produce, one :class:`Revisit` per revisited place.
+
+    ``path_xy (P, 2)``: predicted poses; ``path_travel (P,)``: travel from the current pose
+    to each of them (default: arc length along ``path_xy`` from its first point).
+    ``keyframe_xy (K, 2)``/``keyframe_travel (K,)``: keyframe estimates and the cumulative
+    travel at each; ``current_travel``: the cumulative travel now. ``blocked`` (on ``grid``)
+    marks known-occupied cells, which break line of sight.
+
+    A pair (path pose, keyframe) qualifies when it is within ``r_lc``, its travel gap
+    ``current_travel + path_travel - keyframe_travel`` exceeds ``min_travel_gap`` and the
+    segment between them is clear. Each keyframe keeps its closest qualifying pose; then
+    keyframes whose indices differ by at most ``merge_keyframe_gap`` form one revisit,
+    represented by its closest pair. Sorted by keyframe index.
+    """
+    path_xy = np.asarray(path_xy, float).reshape(-1, 2)
+    keyframe_xy = np.asarray(keyframe_xy, float).reshape(-1, 2)
+    if len(path_xy) == 0 or len(keyframe_xy) == 0:
+        return []
+    if path_travel is None:
+        path_travel = cumulative_length(path_xy)
+    path_idx, kf_idx, dist = _pairs_within(path_xy, keyframe_xy, config.r_lc)
+    gap = current_travel + np.asarray(path_travel)[path_idx] - np.asarray(keyframe_travel)[kf_idx]
+    keep = gap > config.min_travel_gap
+    path_idx, kf_idx, dist = path_idx[keep], kf_idx[keep], dist[keep]
+    visible = line_of_sight(
+        path_xy[path_idx], keyframe_xy[kf_idx], blocked, grid, config.los_step_fraction
+    )
+    path_idx, kf_idx, dist = _closest_per_keyframe(path_idx, kf_idx, dist)
+    return _merge_runs(path_idx, kf_idx, dist, config.merge_keyframe_gap)
+
+
+def _pairs_within(
+    a_xy: np.ndarray, b_xy: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All ``(i, j, distance)`` with ``|a_i - b_j| <= radius`` (KD-trees)."""
+    pairs = cKDTree(a_xy).sparse_distance_matrix(cKDTree(b_xy), radius, output_type="ndarray")
+    return pairs["i"].astype(np.int64), pairs["j"].astype(np.int64), pairs["v"].astype(float)
+
+
+def _closest_per_keyframe(
+    path_idx: np.ndarray, kf_idx: np.ndarray, dist: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each keyframe, its closest pair (ties: the earliest path pose); by keyframe."""
+    order = np.lexsort((path_idx, dist, kf_idx))
+    path_idx, kf_idx, dist = path_idx[order], kf_idx[order], dist[order]
+    first = np.r_[len(kf_idx) > 0, kf_idx[1:] != kf_idx[:-1]][: len(kf_idx)]
+    return path_idx[first], kf_idx[first], dist[first]
+
+
+def _merge_runs(
+    path_idx: np.ndarray, kf_idx: np.ndarray, dist: np.ndarray, max_gap: int
+) -> list[Revisit]:
+    """Group keyframes (sorted) whose index gaps are ``<= max_gap``; keep each group's
+    closest pair."""
+    if len(kf_idx) == 0:
+        return []
+    breaks = np.flatnonzero(np.diff(kf_idx) > max_gap) + 1
+    revisits = []
+    for group in np.split(np.arange(len(kf_idx)), breaks):
+        best = group[np.argmin(dist[group])]
+        revisits.append(Revisit(int(path_idx[best]), int(kf_idx[best]), float(dist[best])))
+    return revisits

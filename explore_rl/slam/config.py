@@ -1,0 +1,82 @@
+"""Configuration of the SLAM back end (pose graph) and the sequential scan matcher.
+
+Plain dataclasses with plain field types so they can become Hydra structured configs.
+Units are SI (metres, radians) unless the field name ends in ``_deg``.
+``conf/slam/icp.yaml`` mirrors these defaults.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+
+@dataclass
+class PoseGraphConfig:
+    """iSAM2 pose graph over Pose3 keyframes (kept planar by tight z/roll/pitch sigmas)."""
+
+    # Prior on the first keyframe (the true start pose).
+    prior_sigma_translation: float = 1e-4
+    prior_sigma_rotation: float = 1e-4
+
+    # Odometry factor noise per motion step; x, y and yaw scale with sqrt(motion_steps).
+    odom_sigma_xy_per_step: float = 0.01
+    odom_sigma_yaw_deg_per_step: float = 0.08
+    # Tight, unscaled sigmas that keep the graph planar.
+    odom_sigma_z: float = 1e-3
+    odom_sigma_roll_pitch: float = 1e-3
+
+    # Loop closures: robust kernel "cauchy", "huber" or "none"; width in whitened
+    # (Mahalanobis) units. The residual of a *correct* closure includes the drift
+    # accumulated since the revisited pose, so a narrow kernel (~1) also discounts good
+    # closures; 3 keeps them while a 2 m-wrong closure (40 sigma) gets weight ~0.006.
+    # Huber's bounded but non-vanishing influence still lets it pull 5-15 cm.
+    loop_robust_kernel: str = "cauchy"
+    loop_robust_width: float = 3.0
+    # Extra iSAM2 update() calls after each loop closure (lets iSAM2 relinearise).
+    loop_extra_updates: int = 2
+
+    # iSAM2 parameters.
+    relinearize_threshold: float = 0.01
+    relinearize_skip: int = 1
+
+
+@dataclass
+class ScanMatcherConfig:
+    """kiss-icp sequential scan matching plus a KD-tree quality/covariance check."""
+
+    # kiss-icp: scan range filter; ``max_range`` also bounds the local map radius.
+    max_range: float = 5.0
+    min_range: float = 0.0
+    voxel_size: float = 0.1
+    max_points_per_voxel: int = 3
+    # Fixed ICP threshold sigma (kiss-icp gates correspondences at 3 sigma).
+    fixed_threshold: float = 0.2
+    max_iterations: int = 20
+    convergence_criterion: float = 1e-4
+    # 1 keeps kiss-icp single-threaded (the machine is shared); 0 = automatic.
+    max_threads: int = 1
+
+    # Sensor-frame z below which points are dropped before registration (None keeps
+    # the floor).
+    drop_ground_below_z: Optional[float] = None
+
+    # Quality check against the local map.
+    inlier_distance: float = 0.15
+    normal_neighbors: int = 8
+    # Inliers used for normals / Hessian / residual (a regular subsample; cost bound).
+    max_quality_points: int = 500
+    min_points: int = 50
+    min_inliers: int = 50
+    min_inlier_fraction: float = 0.3
+    # Eigenvalue threshold of the point-to-plane Hessian divided by the inlier count.
+    weak_eigenvalue: float = 0.02
+    # More weak directions than this -> degenerate (floor only has 3: x, y, yaw).
+    max_weak_directions: int = 2
+
+    # Covariance: standard deviation along weak directions, floors added on the
+    # diagonal, and the isotropic standard deviation of degenerate (unusable) scans.
+    weak_sigma: float = 1.0
+    min_sigma_translation: float = 0.01
+    min_sigma_rotation_deg: float = 0.15
+    degenerate_sigma: float = 100.0

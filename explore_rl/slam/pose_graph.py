@@ -1,0 +1,316 @@
+"""Pose graph: a thin, readable wrapper over ``gtsam.ISAM2`` with ``Pose3`` keyframes.
+
+Keyframe ``i`` is the gtsam key ``symbol('x', i)``; keyframes are numbered 0..N-1 in the
+order they are added. Poses are the robot base in the world frame. Measurements
+(odometry, scan matching, loop closures) are 4x4 relative transforms ``T_i^-1 T_j``;
+their covariances are 6x6 in gtsam's Pose3 tangent order ``(rx, ry, rz, tx, ty, tz)``,
+expressed in the body frame of ``j`` (right perturbation ``T Exp(xi)``).
+
+Every change goes through :meth:`PoseGraph._apply`, which turns plain-numpy factor
+records into gtsam factors, runs the iSAM2 update(s) and logs the batch. The log makes
+the graph picklable (``__setstate__`` replays it, reproducing the same iSAM2 state) and
+:meth:`copy` uses the iSAM2 copy constructor (``copy.deepcopy`` of an ISAM2 fails).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import gtsam
+import numpy as np
+
+from explore_rl.geometry import se2_to_matrix
+from explore_rl.slam.config import PoseGraphConfig
+
+if TYPE_CHECKING:
+    from explore_rl.slam.frontend import ScanMatch
+
+ODOMETRY = "odometry"
+SCAN_MATCHING = "scan_matching"
+PRIOR = "prior"
+
+
+def key(i: int) -> int:
+    """gtsam key of keyframe ``i``."""
+    return gtsam.symbol("x", int(i))
+
+
+@dataclass(frozen=True)
+class FactorRecord:
+    """One factor as plain data: a prior (``j is None``) or a between factor ``i -> j``."""
+
+    kind: str
+    i: int
+    j: int | None
+    measurement: np.ndarray  # 4x4: the prior pose, or the relative pose T_i^-1 T_j
+    covariance: np.ndarray  # 6x6, Pose3 tangent order (rx, ry, rz, tx, ty, tz)
+    robust: bool = False
+
+
+@dataclass
+class _Batch:
+    """Everything passed to one ``PoseGraph._apply`` call (the unit of replay)."""
+
+    factors: list[FactorRecord]
+    new_poses: dict[int, np.ndarray] = field(default_factory=dict)
+    extra_updates: int = 0
+
+
+def as_matrix(pose: np.ndarray) -> np.ndarray:
+    """A 4x4 transform from a 4x4 or a planar ``[x, y, yaw]``."""
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape == (3,):
+        return se2_to_matrix(pose)
+    if pose.shape == (4, 4):
+        return pose
+    raise ValueError(f"expected a 4x4 transform or [x, y, yaw], got shape {pose.shape}")
+
+
+def odometry_covariance(config: PoseGraphConfig, motion_steps: int) -> np.ndarray:
+    """6x6 odometry covariance over ``motion_steps`` steps (x, y, yaw scale with sqrt)."""
+    scale = np.sqrt(max(int(motion_steps), 1))
+    sigmas = np.array(
+        [
+            config.odom_sigma_roll_pitch,
+            config.odom_sigma_roll_pitch,
+            np.deg2rad(config.odom_sigma_yaw_deg_per_step) * scale,
+            config.odom_sigma_xy_per_step * scale,
+            config.odom_sigma_xy_per_step * scale,
+            config.odom_sigma_z,
+        ]
+    )
+    return np.diag(sigmas**2)
+
+
+def _gaussian(covariance: np.ndarray) -> gtsam.noiseModel.Base:
+    covariance = np.asarray(covariance, dtype=float)
+    if np.count_nonzero(covariance - np.diag(np.diag(covariance))) == 0:
+        return gtsam.noiseModel.Diagonal.Variances(np.diag(covariance).copy())
+    return gtsam.noiseModel.Gaussian.Covariance(covariance)
+
+
+def _robust(base: gtsam.noiseModel.Base, kernel: str, width: float) -> gtsam.noiseModel.Base:
+    estimators = {
+        "cauchy": gtsam.noiseModel.mEstimator.Cauchy,
+        "huber": gtsam.noiseModel.mEstimator.Huber,
+    }
+    if kernel == "none":
+        return base
+    if kernel not in estimators:
+        raise ValueError(f"unknown robust kernel {kernel!r}; use one of {sorted(estimators)} or 'none'")
+    return gtsam.noiseModel.Robust.Create(estimators[kernel].Create(width), base)
+
+
+class PoseGraph:
+    """iSAM2 pose graph of keyframes with cached marginal covariances."""
+
+    def __init__(self, config: PoseGraphConfig, start_pose: np.ndarray) -> None:
+        """Start a graph with keyframe 0 at ``start_pose`` (``[x, y, yaw]`` or 4x4)."""
+        self.config = config
+        self._reset_state()
+        start = as_matrix(start_pose)
+        prior_cov = np.diag(
+            [config.prior_sigma_rotation**2] * 3 + [config.prior_sigma_translation**2] * 3
+        )
+        self._apply(_Batch([FactorRecord(PRIOR, 0, None, start, prior_cov)], {0: start}))
+
+    def _reset_state(self) -> None:
+        params = gtsam.ISAM2Params()
+        params.setRelinearizeThreshold(self.config.relinearize_threshold)
+        params.relinearizeSkip = self.config.relinearize_skip
+        self._isam = gtsam.ISAM2(params)
+        self._log: list[_Batch] = []
+        self._edges: list[tuple[int, int, str]] = []
+        self.factor_counts: dict[str, int] = {ODOMETRY: 0, SCAN_MATCHING: 0}
+        self.version = 0
+        self._num_poses = 0
+        self._cache: dict[tuple, np.ndarray] = {}
+
+    # ------------------------------------------------------------------ updates
+
+    def add_keyframe(
+        self, odom_delta: np.ndarray, motion_steps: int, ssm: ScanMatch | None = None
+    ) -> int:
+        """Add the next keyframe; return its index.
+
+        ``odom_delta`` is the wheel-odometry motion since the previous keyframe (4x4 or
+        ``[x, y, yaw]``), ``motion_steps`` the number of motion steps it spans (odometry
+        sigmas scale with its square root; at least 1). ``ssm`` adds a scan-matching
+        factor with the match's own covariance, unless ``ssm.usable`` is false.
+        Noise-free measurements are fine (the EM planner forward-simulates on copies).
+        """
+        i, j = self._num_poses - 1, self._num_poses
+        delta = as_matrix(odom_delta)
+        guess = self.pose(i) @ delta
+        factors = [
+            FactorRecord(ODOMETRY, i, j, delta, odometry_covariance(self.config, motion_steps))
+        ]
+        if ssm is not None and ssm.usable:
+            factors.append(FactorRecord(SCAN_MATCHING, i, j, ssm.relative, ssm.covariance))
+        self._apply(_Batch(factors, {j: guess}))
+        return j
+
+    def add_loop_closure(
+        self, i: int, j: int, relative: np.ndarray, covariance: np.ndarray, kind: str
+    ) -> None:
+        """Add a robust loop-closure factor ``T_i^-1 T_j = relative`` of the given kind."""
+        for k in (i, j):
+            if not 0 <= k < self._num_poses:
+                raise IndexError(f"keyframe {k} does not exist (graph has {self._num_poses})")
+        if kind in (PRIOR, ODOMETRY, SCAN_MATCHING):
+            raise ValueError(f"{kind!r} is not a loop-closure kind")
+        robust = self.config.loop_robust_kernel != "none"
+        record = FactorRecord(kind, int(i), int(j), as_matrix(relative), covariance, robust)
+        self._apply(_Batch([record], extra_updates=self.config.loop_extra_updates))
+
+    def _apply(self, batch: _Batch) -> None:
+        """Run one iSAM2 update (plus extra ones) for ``batch`` and log it."""
+        graph = gtsam.NonlinearFactorGraph()
+        for record in batch.factors:
+            graph.add(self._make_factor(record))
+        values = gtsam.Values()
+        for j, T in batch.new_poses.items():
+            values.insert(key(j), gtsam.Pose3(T))
+        self._isam.update(graph, values)
+        for _ in range(batch.extra_updates):
+            self._isam.update()
+        self._bookkeep(batch)
+
+    def _make_factor(self, record: FactorRecord) -> gtsam.NonlinearFactor:
+        noise = _gaussian(record.covariance)
+        pose = gtsam.Pose3(record.measurement)
+        if record.j is None:
+            return gtsam.PriorFactorPose3(key(record.i), pose, noise)
+        if record.robust:
+            noise = _robust(noise, self.config.loop_robust_kernel, self.config.loop_robust_width)
+        return gtsam.BetweenFactorPose3(key(record.i), key(record.j), pose, noise)
+
+    def _bookkeep(self, batch: _Batch) -> None:
+        self._log.append(batch)
+        self._num_poses += len(batch.new_poses)
+        for record in batch.factors:
+            if record.j is not None:
+                self._edges.append((record.i, record.j, record.kind))
+                self.factor_counts[record.kind] = self.factor_counts.get(record.kind, 0) + 1
+        self.version += 1
+        self._cache.clear()
+
+    # ---------------------------------------------------------------- estimates
+
+    @property
+    def num_poses(self) -> int:
+        return self._num_poses
+
+    def __len__(self) -> int:
+        return self._num_poses
+
+    @property
+    def isam(self) -> gtsam.ISAM2:
+        """The live iSAM2 object (read it; change the graph only through this class)."""
+        return self._isam
+
+    @property
+    def edges(self) -> list[tuple[int, int, str]]:
+        """``(i, j, kind)`` of every between factor, in insertion order."""
+        return list(self._edges)
+
+    def pose(self, i: int) -> np.ndarray:
+        """Current 4x4 estimate of keyframe ``i``."""
+        return self._isam.calculateEstimatePose3(key(i)).matrix()
+
+    def poses_matrix(self) -> np.ndarray:
+        """``(N, 4, 4)`` current estimates."""
+        if ("poses",) not in self._cache:
+            values = self._isam.calculateEstimate()
+            self._cache[("poses",)] = np.stack(
+                [values.atPose3(key(i)).matrix() for i in range(self._num_poses)]
+            )
+        return self._cache[("poses",)].copy()
+
+    def poses_se2(self) -> np.ndarray:
+        """``(N, 3)`` current planar estimates ``[x, y, yaw]``."""
+        T = self.poses_matrix()
+        return np.stack([T[:, 0, 3], T[:, 1, 3], np.arctan2(T[:, 1, 0], T[:, 0, 0])], axis=-1)
+
+    # -------------------------------------------------------------- covariances
+
+    def marginal_covariance(self, i: int) -> np.ndarray:
+        """6x6 marginal of keyframe ``i`` (tangent order rx, ry, rz, tx, ty, tz; body frame).
+
+        iSAM2 marginals are linearised at ``isam.getLinearizationPoint()``.
+        """
+        return self._cached(("marginal", i), lambda: self._isam.marginalCovariance(key(i)))
+
+    def world_xy_yaw_covariance(self, i: int) -> np.ndarray:
+        """3x3 covariance of (x, y) in the world frame and yaw.
+
+        With ``T Exp(xi)`` the world translation moves by ``R v`` and the world rotation
+        by ``R w``, so the Jacobian picks rows 0-1 of ``R`` on ``v`` and row 2 on ``w``;
+        for a planar pose this is ``R2 Sigma_t R2^T`` plus the yaw row/column.
+        """
+
+        def compute() -> np.ndarray:
+            R = self.pose(i)[:3, :3]
+            J = np.zeros((3, 6))
+            J[:2, 3:] = R.T[:2, :]
+            J[2, :3] = R[2, :]
+            return J @ self.marginal_covariance(i) @ J.T
+
+        return self._cached(("xy_yaw", i), compute)
+
+    def world_xy_covariance(self, i: int) -> np.ndarray:
+        """2x2 world-frame covariance of the position of keyframe ``i``."""
+        return self.world_xy_yaw_covariance(i)[:2, :2]
+
+    def all_world_xy_covariances(self) -> np.ndarray:
+        """``(N, 2, 2)`` world-frame position covariances of every keyframe."""
+
+        def compute() -> np.ndarray:
+            return np.stack([self.world_xy_covariance(i) for i in range(self._num_poses)])
+
+        return self._cached(("all_xy",), compute)
+
+    def joint_marginal_covariance(self, i: int, j: int) -> np.ndarray:
+        """12x12 joint marginal of keyframes ``i`` then ``j`` (for loop-closure gating)."""
+
+        def compute() -> np.ndarray:
+            joint = self._isam.jointMarginalCovariance([key(i), key(j)])
+            ki, kj = key(i), key(j)
+            return np.block(
+                [[joint.at(ki, ki), joint.at(ki, kj)], [joint.at(kj, ki), joint.at(kj, kj)]]
+            )
+
+        return self._cached(("joint", i, j), compute)
+
+    def _cached(self, name: tuple, compute) -> np.ndarray:
+        if name not in self._cache:
+            self._cache[name] = np.asarray(compute(), dtype=float)
+        return self._cache[name].copy()
+
+    # ------------------------------------------------------- copying & pickling
+
+    def copy(self) -> PoseGraph:
+        """An independent graph: updating the copy leaves this one untouched (~1 ms)."""
+        other = PoseGraph.__new__(PoseGraph)
+        other.config = self.config
+        other._isam = gtsam.ISAM2(self._isam)
+        other._log = list(self._log)
+        other._edges = list(self._edges)
+        other.factor_counts = dict(self.factor_counts)
+        other.version = self.version
+        other._num_poses = self._num_poses
+        other._cache = dict(self._cache)
+        return other
+
+    def __getstate__(self) -> dict:
+        """Pickle the config and the update log (plain numpy), not the iSAM2 object."""
+        return {"config": self.config, "log": self._log, "version": self.version}
+
+    def __setstate__(self, state: dict) -> None:
+        """Rebuild iSAM2 by replaying the logged updates in order (same result)."""
+        self.config = state["config"]
+        self._reset_state()
+        for batch in state["log"]:
+            self._apply(batch)
+        self.version = state["version"]

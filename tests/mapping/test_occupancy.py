@@ -1,0 +1,221 @@
+"""2D scan collapse, log-odds occupancy, rebuilds and the explored fraction."""
+
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from explore_rl.grid import GridSpec
+from explore_rl.mapping.config import MappingConfig, OccupancyConfig
+from explore_rl.mapping.occupancy import (
+    OccupancyGrid,
+    Scan2D,
+    collapse_scan,
+    explored_fraction,
+    needs_rebuild,
+)
+
+N_BINS = 900
+SENSOR_HEIGHT = 0.5
+CONFIG = OccupancyConfig()  # floor < 0.1, obstacles 0.15..0.6, max range 3
+
+
+def bin_centre(k: int) -> float:
+    return -np.pi + (k + 0.5) * 2 * np.pi / N_BINS
+
+
+def point_at(k: int, horizontal: float, z_base: float) -> list[float]:
+    """A sensor-frame point in azimuth bin k at the given horizontal range and base height."""
+    a = bin_centre(k)
+    return [horizontal * np.cos(a), horizontal * np.sin(a), z_base - SENSOR_HEIGHT]
+
+
+def direction_at(k: int, elevation: float) -> list[float]:
+    a = bin_centre(k)
+    return [np.cos(elevation) * np.cos(a), np.cos(elevation) * np.sin(a), np.sin(elevation)]
+
+
+# --- collapse_scan ---------------------------------------------------------------------
+def test_collapse_scan_classifies_by_height_and_bins_by_azimuth():
+    points = [
+        point_at(10, 2.5, 0.05),  # floor far away ...
+        point_at(10, 1.5, 0.40),  # ... an obstacle ...
+        point_at(10, 1.0, 0.20),  # ... and a nearer obstacle: it wins
+        point_at(20, 1.0, 0.02),  # floor only: free to the farthest floor point
+        point_at(20, 2.2, 0.08),
+        point_at(30, 0.8, 1.50),  # above robot height: ignored
+        point_at(31, 0.8, 1.50),  # above robot height, with floor behind it
+        point_at(31, 1.7, 0.00),
+        point_at(40, 1.2, 0.12),  # between floor and obstacle band: ignored
+    ]
+    scan = collapse_scan(np.array(points), np.zeros((0, 3)), SENSOR_HEIGHT, CONFIG)
+
+    assert len(scan) == N_BINS
+    np.testing.assert_allclose(scan.angles[[10, 20]], [bin_centre(10), bin_centre(20)])
+    assert scan.hit[10] and scan.ranges[10] == pytest.approx(1.0)
+    assert not scan.hit[20] and scan.ranges[20] == pytest.approx(2.2)
+    assert scan.ranges[30] == 0.0 and not scan.hit[30]
+    assert not scan.hit[31] and scan.ranges[31] == pytest.approx(1.7)
+    assert scan.ranges[40] == 0.0
+    informative = {10, 20, 31}
+    others = [k for k in range(N_BINS) if k not in informative]
+    assert np.all(scan.ranges[others] == 0.0) and not scan.hit[others].any()
+
+
+def test_no_return_direction_clears_to_max_range():
+    dirs = np.array([direction_at(100, 0.0), direction_at(200, np.radians(-1.0))])
+    scan = collapse_scan(np.zeros((0, 3)), dirs, SENSOR_HEIGHT, CONFIG)
+    assert not scan.hit[[100, 200]].any()
+    assert scan.ranges[100] == pytest.approx(CONFIG.max_range)
+    assert scan.ranges[200] == pytest.approx(CONFIG.max_range * np.cos(np.radians(1.0)))
+    assert np.count_nonzero(scan.ranges) == 2
+
+
+def test_upward_no_return_clears_only_inside_the_obstacle_band():
+    elevation = np.radians(15.0)
+    scan = collapse_scan(np.zeros((0, 3)), np.array([direction_at(7, elevation)]), SENSOR_HEIGHT, CONFIG)
+    # The ray reaches the top of the band (0.6 m) after 0.1 / tan(15 deg) horizontally.
+    expected = (CONFIG.obstacle_max_height - SENSOR_HEIGHT) / np.tan(elevation)
+    assert scan.ranges[7] == pytest.approx(expected)
+
+
+def test_no_return_beats_nearer_floor_but_not_an_obstacle():
+    points = np.array([point_at(5, 1.9, 0.0), point_at(6, 1.9, 0.0), point_at(6, 1.2, 0.3)])
+    dirs = np.array([direction_at(5, 0.0), direction_at(6, 0.0)])
+    scan = collapse_scan(points, dirs, SENSOR_HEIGHT, CONFIG)
+    assert not scan.hit[5] and scan.ranges[5] == pytest.approx(CONFIG.max_range)
+    assert scan.hit[6] and scan.ranges[6] == pytest.approx(1.2)
+
+
+# --- occupancy in a square room ----------------------------------------------------------
+ROOM = 6.0  # interior [0, 6] x [0, 6]; the wall surfaces lie on cell boundaries
+GRID = GridSpec((-1.0, -1.0), 0.1, (80, 80))  # interior cells: iy, ix in 10..69
+
+
+def room_scan(sensor_xy: np.ndarray, n_bins: int = N_BINS) -> Scan2D:
+    """Exact ranges from ``sensor_xy`` to the walls of the room, every beam a hit."""
+    angles = -np.pi + (np.arange(n_bins) + 0.5) * 2 * np.pi / n_bins
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (ROOM - sensor_xy[0]) / c, -sensor_xy[0] / c)
+        ty = np.where(s > 0, (ROOM - sensor_xy[1]) / s, -sensor_xy[1] / s)
+    return Scan2D(angles, np.minimum(np.abs(tx), np.abs(ty)), np.ones(n_bins, dtype=bool))
+
+
+def ring_mask() -> np.ndarray:
+    """The wall cells just outside the interior, without the four corners."""
+    ring = np.zeros(GRID.shape, dtype=bool)
+    ring[9, 10:70] = ring[70, 10:70] = True
+    ring[10:70, 9] = ring[10:70, 70] = True
+    return ring
+
+
+def test_room_scan_marks_walls_occupied_interior_free_outside_unknown():
+    occupancy = OccupancyGrid(GRID)
+    occupancy.integrate(room_scan(np.array([3.0, 3.0])), np.array([3.0, 3.0, 0.0]))
+
+    ring = ring_mask()
+    interior = np.zeros(GRID.shape, dtype=bool)
+    interior[10:70, 10:70] = True
+    corners = np.zeros(GRID.shape, dtype=bool)
+    corners[[9, 9, 70, 70], [9, 70, 9, 70]] = True
+
+    assert occupancy.known_occupied[ring].all()
+    assert not occupancy.known_occupied[~(ring | corners)].any()
+    assert occupancy.known_free[interior].all()
+    assert occupancy.unknown[~(interior | ring | corners)].all()
+
+
+def test_yaw_rotates_beams():
+    occupancy = OccupancyGrid(GRID)
+    scan = Scan2D(np.array([0.0]), np.array([1.0]), np.array([True]))
+    occupancy.integrate(scan, np.array([3.05, 3.05, np.pi / 2]))
+    # Beam along body +x = world +y: from (3.05, 3.05) to (3.05, 4.05).
+    assert np.argwhere(occupancy.known_occupied).tolist() == [[50, 40]]
+    assert occupancy.known_free[40:50, 40].all() and occupancy.known_free.sum() == 10
+
+
+def test_repeated_scans_clamp_log_odds():
+    occupancy = OccupancyGrid(GRID)
+    scan = room_scan(np.array([3.0, 3.0]))
+    for _ in range(20):
+        occupancy.integrate(scan, np.array([3.0, 3.0, 0.0]))
+    assert occupancy.log_odds.max() == pytest.approx(CONFIG.log_odds_max)
+    assert occupancy.log_odds.min() == pytest.approx(CONFIG.log_odds_min)
+
+
+def test_rebuild_moves_the_map_with_the_pose():
+    scans = [room_scan(np.array([3.0, 3.0])), room_scan(np.array([2.0, 4.0]))]
+    poses = np.array([[3.0, 3.0, 0.0], [2.0, 4.0, 0.0]])
+    occupancy = OccupancyGrid(GRID)
+    occupancy.rebuild(scans, poses)
+    before_occupied, before_free = occupancy.known_occupied.copy(), occupancy.known_free.copy()
+
+    shift = np.array([0.5, -0.3, 0.0])  # +5 cells in x, -3 cells in y
+    occupancy.rebuild(scans, poses + shift)
+
+    expected_occupied = np.roll(before_occupied, (-3, 5), axis=(0, 1))
+    expected_free = np.roll(before_free, (-3, 5), axis=(0, 1))
+    np.testing.assert_array_equal(occupancy.known_occupied, expected_occupied)
+    np.testing.assert_array_equal(occupancy.known_free, expected_free)
+    assert not np.array_equal(occupancy.known_occupied, before_occupied)
+
+
+def test_rebuild_equals_fresh_integration():
+    scans = [room_scan(np.array([3.0, 3.0])), room_scan(np.array([1.5, 2.0]))]
+    poses = np.array([[3.0, 3.0, 0.0], [1.5, 2.0, 0.0]])
+    stale = OccupancyGrid(GRID)
+    stale.integrate(scans[0], poses[0] + [0.7, 0.0, 0.0])
+    stale.rebuild(scans, poses)
+    fresh = OccupancyGrid(GRID)
+    for scan, pose in zip(scans, poses):
+        fresh.integrate(scan, pose)
+    np.testing.assert_array_equal(stale.log_odds, fresh.log_odds)
+
+
+def test_needs_rebuild_thresholds():
+    res, max_range = 0.1, 3.0
+    old = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.5]])
+    assert not needs_rebuild(old, old + [0.05, 0.05, 0.0], res, max_range)
+    assert needs_rebuild(old, old + [[0, 0, 0], [0.08, 0.08, 0]], res, max_range)
+    assert not needs_rebuild(old, old + [0.0, 0.0, 0.03], res, max_range)
+    assert needs_rebuild(old, old + [0.0, 0.0, 0.04], res, max_range)
+    # Only poses present in both are compared; new keyframes never trigger a rebuild.
+    assert not needs_rebuild(old, np.vstack([old, [[9.0, 9.0, 3.0]]]), res, max_range)
+    # Yaw wraps around.
+    assert not needs_rebuild([[0, 0, np.pi - 0.01]], [[0, 0, -np.pi + 0.01]], res, max_range)
+
+
+# --- explored fraction -------------------------------------------------------------------
+def test_explored_fraction():
+    grid = GridSpec((0.0, 0.0), 0.1, (10, 10))
+    occupancy = OccupancyGrid(grid)
+    truth = np.zeros(grid.shape, dtype=bool)
+    truth[2:7, 2:6] = True  # |F| = 20
+    assert explored_fraction(occupancy, truth) == 0.0
+
+    occupancy.log_odds[2, 2:6] = -1.0  # 4 known free in F
+    occupancy.log_odds[3, 2] = 1.0  # 1 known occupied in F
+    occupancy.log_odds[3, 3] = -0.1  # observed but not yet known: does not count
+    occupancy.log_odds[0, :] = -1.0  # known, but outside F
+    assert explored_fraction(occupancy, truth) == pytest.approx(5 / 20)
+
+    occupancy.log_odds[truth] = -1.0
+    assert explored_fraction(occupancy, truth) == 1.0
+
+
+# --- config ------------------------------------------------------------------------------
+def test_yaml_defaults_match_the_dataclasses():
+    path = Path(__file__).resolve().parents[2] / "conf" / "mapping" / "default.yaml"
+    assert yaml.safe_load(path.read_text()) == asdict(MappingConfig())
+
+
+def test_hit_cell_stays_occupied_when_another_beam_passes_through_it():
+    occupancy = OccupancyGrid(GRID)
+    # Beam 0 hits inside cell [40, 50]; beam 1, almost parallel, is free through it to 2 m.
+    scan = Scan2D(np.array([0.0, 0.01]), np.array([1.0, 2.0]), np.array([True, False]))
+    occupancy.integrate(scan, np.array([4.05, 3.0, 0.0]))
+    assert occupancy.known_occupied[30, 50]
+    assert occupancy.known_free[30, 45] and occupancy.known_free[30, 60]

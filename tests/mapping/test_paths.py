@@ -1,0 +1,181 @@
+"""Traversability and Dijkstra paths, checked against brute-force references."""
+
+import heapq
+
+import numpy as np
+import pytest
+
+from explore_rl.grid import GridSpec
+from explore_rl.mapping.config import PathConfig
+from explore_rl.mapping.paths import (
+    PathPlanner,
+    path_length,
+    simplify_path,
+    traversability,
+)
+
+RES = 0.1
+
+
+def reference_dijkstra(traversable, cost, start, allow_corner_cutting):
+    """Textbook heap Dijkstra over the 8-connected grid (same edge rule, written with loops)."""
+    ny, nx = traversable.shape
+    dist = np.full((ny, nx), np.inf)
+    dist[start] = 0.0
+    heap = [(0.0, start)]
+    while heap:
+        d, (iy, ix) = heapq.heappop(heap)
+        if d > dist[iy, ix]:
+            continue
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                jy, jx = iy + dy, ix + dx
+                if (dy, dx) == (0, 0) or not (0 <= jy < ny and 0 <= jx < nx) or not traversable[jy, jx]:
+                    continue
+                diagonal = dy != 0 and dx != 0
+                if diagonal and not allow_corner_cutting:
+                    if not (traversable[iy + dy, ix] and traversable[iy, ix + dx]):
+                        continue
+                step = RES * (2**0.5 if diagonal else 1.0)
+                nd = d + step * (cost[iy, ix] + cost[jy, jx]) / 2
+                if nd < dist[jy, jx]:
+                    dist[jy, jx] = nd
+                    heapq.heappush(heap, (nd, (jy, jx)))
+    return dist
+
+
+def random_map(seed, shape=(14, 17)):
+    rng = np.random.default_rng(seed)
+    traversable = rng.random(shape) > 0.3
+    cost = np.where(traversable, 1.0 + 2.0 * rng.random(shape), np.inf)
+    start = tuple(int(v) for v in np.argwhere(traversable)[0])
+    return GridSpec((0.0, 0.0), RES, shape), traversable, cost, start
+
+
+@pytest.mark.parametrize("corner_cutting", [False, True])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_distances_match_reference_dijkstra(seed, corner_cutting):
+    grid, traversable, cost, start = random_map(seed)
+    planner = PathPlanner(grid, traversable, cost, PathConfig(allow_corner_cutting=corner_cutting))
+    field = planner.from_start(grid.cell_to_world(np.array(start)))
+    expected = reference_dijkstra(traversable, cost, start, corner_cutting)
+    assert field.start_cell.tolist() == list(start)
+    np.testing.assert_array_equal(np.isinf(field.distances), np.isinf(expected))
+    finite = np.isfinite(expected)
+    np.testing.assert_allclose(field.distances[finite], expected[finite], rtol=1e-12)
+    assert finite.sum() > 20  # the comparison is not vacuous
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_paths_connect_start_to_goal_and_add_up(seed):
+    grid, traversable, cost, start = random_map(seed)
+    field = PathPlanner(grid, traversable, cost).from_start(grid.cell_to_world(np.array(start)))
+    reachable = np.argwhere(np.isfinite(field.distances))
+    goal = reachable[np.argmax(field.distances[tuple(reachable.T)])]  # the farthest cell
+    cells = field.path_cells(goal)
+    path = field.path_to(goal)
+
+    assert cells[0].tolist() == list(start) and cells[-1].tolist() == goal.tolist()
+    np.testing.assert_allclose(path, grid.cell_to_world(cells))
+    steps = np.diff(cells, axis=0)
+    assert np.abs(steps).max() == 1 and np.all(np.abs(steps).sum(axis=1) > 0)
+    assert traversable[tuple(cells.T)].all()
+    step_lengths = np.where(np.abs(steps).sum(axis=1) == 2, RES * 2**0.5, RES)
+    edge_costs = step_lengths * (cost[tuple(cells[:-1].T)] + cost[tuple(cells[1:].T)]) / 2
+    assert edge_costs.sum() == pytest.approx(field.distances[tuple(goal)])
+    assert field.cost_to(goal) == pytest.approx(field.distances[tuple(goal)])
+    assert path_length(path) == pytest.approx(step_lengths.sum())
+
+
+def wall_with_gap_map():
+    """A 3 m x 2 m free map with a wall across x = 1.5 m, open for y in [0.8, 1.6)."""
+    grid = GridSpec((0.0, 0.0), RES, (20, 30))
+    occupied = np.zeros(grid.shape, dtype=bool)
+    occupied[:, 15] = True
+    occupied[8:16, 15] = False
+    return grid, ~occupied, occupied
+
+
+def test_traversability_inflates_known_obstacles_only():
+    grid, free, occupied = wall_with_gap_map()
+    free[0, 0] = False  # an unknown cell far from obstacles
+    radius = 0.25
+    traversable, cost = traversability(free, occupied, grid, radius)
+
+    centres = grid.cell_centers().reshape(-1, 2)
+    walls = grid.cell_to_world(np.argwhere(occupied))
+    clearance = np.linalg.norm(centres[:, None] - walls[None], axis=-1).min(axis=1).reshape(grid.shape)
+    np.testing.assert_array_equal(traversable, free & (clearance > radius + 1e-9))
+    assert not traversable[0, 0]
+    assert np.all(np.isinf(cost[~traversable])) and np.all(cost[traversable] >= 1.0)
+    # Cost falls as clearance grows (the row through the middle of the gap).
+    row = cost[12, :15][traversable[12, :15]]
+    assert np.all(np.diff(row) >= 0) and row[0] < row[-1]
+
+
+def test_no_obstacles_gives_uniform_minimum_cost():
+    grid = GridSpec((0.0, 0.0), RES, (5, 5))
+    traversable, cost = traversability(np.ones(grid.shape, bool), np.zeros(grid.shape, bool), grid, 0.3)
+    assert traversable.all() and np.all(cost == 1.0)
+
+
+def test_path_stays_out_of_inflated_obstacles():
+    grid, free, occupied = wall_with_gap_map()
+    radius = 0.2
+    traversable, cost = traversability(free, occupied, grid, radius)
+    field = PathPlanner(grid, traversable, cost).from_start(np.array([0.35, 0.35]))
+    path = field.path_to(grid.world_to_cell(np.array([2.65, 0.35])))
+    assert path is not None
+
+    # Sample the polyline densely: every sample lies in a traversable cell and keeps
+    # more than the robot radius from every wall cell centre.
+    t = np.linspace(0.0, 1.0, 11)[:, None, None]
+    samples = (path[:-1] * (1 - t) + path[1:] * t).reshape(-1, 2)
+    cells = grid.world_to_cell(samples)
+    assert traversable[cells[:, 0], cells[:, 1]].all()
+    walls = grid.cell_to_world(np.argwhere(occupied))
+    assert np.linalg.norm(samples[:, None] - walls[None], axis=-1).min() > radius
+    # It goes through the gap and is longer than the straight line.
+    assert path[:, 1].max() > 0.8
+    assert path_length(path) > 2.3
+
+
+def test_unreachable_and_blocked_goals_return_none():
+    grid, free, occupied = wall_with_gap_map()
+    occupied[:, 15] = True  # close the gap
+    traversable, cost = traversability(free, occupied, grid, 0.15)
+    field = PathPlanner(grid, traversable, cost).from_start(np.array([0.35, 0.35]))
+    assert field.path_to(np.array([5, 25])) is None  # other side of the wall
+    assert field.path_to(np.array([5, 15])) is None  # inside the wall
+    assert field.path_to(np.array([50, 50])) is None  # off the grid
+    assert field.path_to_xy(np.array([-1.0, 0.3])) is None
+    np.testing.assert_array_equal(field.cost_to(np.array([[5, 25], [50, 50], [-1, 0]])), np.inf)
+    assert np.isfinite(field.cost_to(np.array([5, 5])))
+    assert field.path_to(field.start_cell).shape == (1, 2)
+
+
+def test_start_inside_inflation_snaps_to_nearest_traversable_cell():
+    grid, free, occupied = wall_with_gap_map()
+    traversable, cost = traversability(free, occupied, grid, 0.25)
+    planner = PathPlanner(grid, traversable, cost, PathConfig(start_snap_radius=0.3))
+    # x = 1.32 is 0.18 m from the wall cell centres at x = 1.55; cells up to x = 1.3 are free.
+    field = planner.from_start(np.array([1.32, 0.35]))
+    assert field.start_cell.tolist() == [3, 12]
+    assert np.isfinite(field.distances).sum() > 100
+
+    # Deep inside the wall, nothing is within the snap radius: everything unreachable.
+    blocked = PathPlanner(grid, traversable, cost, PathConfig(start_snap_radius=0.1)).from_start(
+        np.array([1.55, 0.35])
+    )
+    assert blocked.start_cell is None
+    assert blocked.path_to(np.array([3, 5])) is None and not blocked.reachable.any()
+
+
+def test_path_length_and_simplify():
+    path = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [3.0, 2.0], [4.0, 3.0]])
+    assert path_length(path) == pytest.approx(3.0 + 2 * 2**0.5)
+    assert path_length(path[:1]) == 0.0 and path_length(None) == np.inf
+    np.testing.assert_array_equal(simplify_path(path), path[[0, 2, 3, 5]])
+    assert path_length(simplify_path(path)) == pytest.approx(path_length(path))
+    back_and_forth = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.0]])
+    np.testing.assert_array_equal(simplify_path(back_and_forth), back_and_forth)
