@@ -12,9 +12,13 @@ from typing import Optional
 
 from hydra.core.config_store import ConfigStore
 
+from explore_rl.mapping.config import MappingConfig
+from explore_rl.planning.config import PlanningConfig
 from explore_rl.robot import RobotConfig
 from explore_rl.scene.config import SceneConfig
 from explore_rl.sensors.lidar import LidarConfig
+from explore_rl.slam.config import SlamConfig
+from explore_rl.tour import TourConfig
 
 
 @dataclass
@@ -24,6 +28,10 @@ class Config:
     scene: SceneConfig = field(default_factory=SceneConfig)
     robot: RobotConfig = field(default_factory=RobotConfig)
     lidar: LidarConfig = field(default_factory=LidarConfig)
+    slam: SlamConfig = field(default_factory=SlamConfig)
+    mapping: MappingConfig = field(default_factory=MappingConfig)
+    planning: PlanningConfig = field(default_factory=PlanningConfig)
+    tour: TourConfig = field(default_factory=TourConfig)
 
 
 def register_configs() -> None:
@@ -45,5 +53,7 @@ def validate(config: Config) -> None:
     for key, value in positive.items():
         if not value > 0:
             raise ValueError(f"{key} must be positive, got {value}")
+    if config.slam.frontend not in ("icp", "model"):
+        raise ValueError(f"slam.frontend={config.slam.frontend!r}: choose slam=icp or slam=model")
     if config.lidar.channels < 1:
         raise ValueError(f"lidar.channels must be >= 1, got {config.lidar.channels}")

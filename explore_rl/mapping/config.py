@@ -57,6 +57,7 @@ class PathConfig:
     """Traversability and grid Dijkstra."""
 
     inflation_margin: float = 0.0  # added to the robot radius when inflating obstacles (m)
+    grid_border_is_obstacle: bool = True  # the scene grid ends at the walls: keep clear of its edge
     clearance_weight: float = 1.0  # cell cost = 1 + weight * exp(-clearance / scale)
     clearance_scale: float = 0.3  # m; clearance counted from the inflated boundary
     allow_corner_cutting: bool = False  # diagonal steps need both side cells traversable

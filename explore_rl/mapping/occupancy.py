@@ -43,15 +43,18 @@ class Scan2D:
 
 
 def azimuth_bin_centres(n_bins: int) -> np.ndarray:
-    """Centres of ``n_bins`` equal azimuth bins covering [-pi, pi)."""
-    width = 2.0 * np.pi / n_bins
-    return -np.pi + (np.arange(n_bins) + 0.5) * width
+    """Centres of ``n_bins`` equal azimuth bins: ``k * 360 / n_bins`` deg, wrapped to [-pi, pi).
+
+    Centring the bins on multiples of the bin width puts a LiDAR whose azimuths start at 0
+    with the same step exactly on the bin centres, far from the bin edges.
+    """
+    return wrap_angle(np.arange(n_bins) * (2.0 * np.pi / n_bins))
 
 
 def azimuth_bin_index(xy: np.ndarray, n_bins: int) -> np.ndarray:
     """Azimuth bin of each horizontal vector ``xy[..., 2]`` (bins as in :func:`azimuth_bin_centres`)."""
     azimuth = np.arctan2(xy[..., 1], xy[..., 0])
-    index = np.floor((azimuth + np.pi) * (n_bins / (2.0 * np.pi))).astype(np.int64)
+    index = np.round(azimuth * (n_bins / (2.0 * np.pi))).astype(np.int64)
     return np.mod(index, n_bins)
 
 
@@ -106,7 +109,7 @@ def collapse_scan(
 
     dirs = np.asarray(no_return_dirs, dtype=float).reshape(-1, 3)
     clearance = no_return_clearance(dirs, sensor_height, config)
-    pass
+    np.maximum.at(farthest_free, azimuth_bin_index(dirs[:, :2], n_bins), clearance)
 
     hit = np.isfinite(nearest_obstacle)
     ranges = np.where(hit, nearest_obstacle, farthest_free)

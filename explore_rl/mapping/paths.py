@@ -30,24 +30,35 @@ def traversability(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Traversable mask and per-cell cost (``inf`` where not traversable).
 
-    A cell is traversable if known free and farther than ``robot_radius +
-    inflation_margin`` from every known-occupied cell (centre to centre). Its cost is
-    ``1 + clearance_weight * exp(-c / clearance_scale)``, ``c`` = clearance beyond that
-    inflation radius, so paths keep away from walls.
+    A cell is traversable if known free and its clearance exceeds ``robot_radius +
+    inflation_margin``; its cost is ``1 + clearance_weight * exp(-c / clearance_scale)``,
+    ``c`` = clearance beyond that radius, so paths keep away from walls. See
+    :func:`obstacle_clearance` for how clearance is measured.
     """
     config = config or PathConfig()
     known_free = np.asarray(known_free, dtype=bool)
     known_occupied = np.asarray(known_occupied, dtype=bool)
-    if known_occupied.any():
-        clearance = ndimage.distance_transform_edt(~known_occupied) * grid.resolution
-    else:
-        clearance = np.full(grid.shape, np.inf)
+    clearance = obstacle_clearance(known_occupied, grid, config.grid_border_is_obstacle)
     inflated_radius = robot_radius + config.inflation_margin
     traversable = known_free & ~known_occupied & (clearance > inflated_radius)
     extra = np.maximum(clearance - inflated_radius, 0.0)
     cost = 1.0 + config.clearance_weight * np.exp(-extra / config.clearance_scale)
-    cost = np.where(traversable, cost, np.inf)
-    return traversable, cost
+    return traversable, np.where(traversable, cost, np.inf)
+
+
+def obstacle_clearance(occupied: np.ndarray, grid: GridSpec, border_is_obstacle: bool = True) -> np.ndarray:
+    """Distance (m) from each cell centre to the nearest occupied cell's edge.
+
+    An occupied cell only says the surface lies somewhere inside it, so the distance is
+    the centre-to-centre distance minus half a cell. With ``border_is_obstacle`` the
+    ring of cells just outside the grid counts as occupied (the scene grid covers the
+    interior only; its perimeter walls lie outside it).
+    """
+    blocked = np.pad(occupied, 1, constant_values=border_is_obstacle)
+    if not blocked.any():
+        return np.full(grid.shape, np.inf)
+    centre_distance = ndimage.distance_transform_edt(~blocked)[1:-1, 1:-1]  # in cells
+    return (centre_distance - 0.5) * grid.resolution
 
 
 def grid_graph(

@@ -111,6 +111,7 @@ def predict_revisits(
     visible = line_of_sight(
         path_xy[path_idx], keyframe_xy[kf_idx], blocked, grid, config.los_step_fraction
     )
+    path_idx, kf_idx, dist = path_idx[visible], kf_idx[visible], dist[visible]
     path_idx, kf_idx, dist = _closest_per_keyframe(path_idx, kf_idx, dist)
     return _merge_runs(path_idx, kf_idx, dist, config.merge_keyframe_gap)
 

@@ -7,7 +7,7 @@ Units are SI (metres, radians) unless the field name ends in ``_deg``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 
@@ -80,3 +80,19 @@ class ScanMatcherConfig:
     min_sigma_translation: float = 0.01
     min_sigma_rotation_deg: float = 0.15
     degenerate_sigma: float = 100.0
+
+
+@dataclass
+class SlamConfig:
+    """The ``slam`` config group: keyframing, the front end and the back end."""
+
+    # "icp": kiss-icp scan matching on the simulated clouds; "model": the calibrated model.
+    frontend: str = "icp"
+    keyframe_distance: float = 0.5
+    keyframe_angle_deg: float = 15.0
+    # Map error: this many seeded scan points per keyframe (DESIGN.md).
+    map_error_points: int = 256
+    # Keyframe clouds kept for maps/loop closures are voxel-down-sampled to this size.
+    keyframe_cloud_voxel: float = 0.05
+    pose_graph: PoseGraphConfig = field(default_factory=PoseGraphConfig)
+    scan_matcher: ScanMatcherConfig = field(default_factory=ScanMatcherConfig)

@@ -253,7 +253,7 @@ class PoseGraph:
         def compute() -> np.ndarray:
             R = self.pose(i)[:3, :3]
             J = np.zeros((3, 6))
-            J[:2, 3:] = R.T[:2, :]
+            J[:2, 3:] = R[:2, :]
             J[2, :3] = R[2, :]
             return J @ self.marginal_covariance(i) @ J.T
 

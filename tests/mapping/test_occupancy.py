@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scipy import ndimage
 
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.config import MappingConfig, OccupancyConfig
@@ -16,6 +17,7 @@ from explore_rl.mapping.occupancy import (
     explored_fraction,
     needs_rebuild,
 )
+from explore_rl.sensors.lidar import Lidar, LidarConfig
 
 N_BINS = 900
 SENSOR_HEIGHT = 0.5
@@ -23,7 +25,9 @@ CONFIG = OccupancyConfig()  # floor < 0.1, obstacles 0.15..0.6, max range 3
 
 
 def bin_centre(k: int) -> float:
-    return -np.pi + (k + 0.5) * 2 * np.pi / N_BINS
+    """Bin k is centred on k * 0.4 deg (so VLP-16 azimuths fall on bin centres)."""
+    angle = k * 2 * np.pi / N_BINS
+    return angle if angle < np.pi else angle - 2 * np.pi
 
 
 def point_at(k: int, horizontal: float, z_base: float) -> list[float]:
@@ -46,8 +50,8 @@ def test_collapse_scan_classifies_by_height_and_bins_by_azimuth():
         point_at(20, 1.0, 0.02),  # floor only: free to the farthest floor point
         point_at(20, 2.2, 0.08),
         point_at(30, 0.8, 1.50),  # above robot height: ignored
-        point_at(31, 0.8, 1.50),  # above robot height, with floor behind it
-        point_at(31, 1.7, 0.00),
+        point_at(700, 0.8, 1.50),  # above robot height, with floor behind it
+        point_at(700, 1.7, 0.00),
         point_at(40, 1.2, 0.12),  # between floor and obstacle band: ignored
     ]
     scan = collapse_scan(np.array(points), np.zeros((0, 3)), SENSOR_HEIGHT, CONFIG)
@@ -57,9 +61,9 @@ def test_collapse_scan_classifies_by_height_and_bins_by_azimuth():
     assert scan.hit[10] and scan.ranges[10] == pytest.approx(1.0)
     assert not scan.hit[20] and scan.ranges[20] == pytest.approx(2.2)
     assert scan.ranges[30] == 0.0 and not scan.hit[30]
-    assert not scan.hit[31] and scan.ranges[31] == pytest.approx(1.7)
+    assert not scan.hit[700] and scan.ranges[700] == pytest.approx(1.7)
     assert scan.ranges[40] == 0.0
-    informative = {10, 20, 31}
+    informative = {10, 20, 700}
     others = [k for k in range(N_BINS) if k not in informative]
     assert np.all(scan.ranges[others] == 0.0) and not scan.hit[others].any()
 
@@ -216,6 +220,25 @@ def test_hit_cell_stays_occupied_when_another_beam_passes_through_it():
     occupancy = OccupancyGrid(GRID)
     # Beam 0 hits inside cell [40, 50]; beam 1, almost parallel, is free through it to 2 m.
     scan = Scan2D(np.array([0.0, 0.01]), np.array([1.0, 2.0]), np.array([True, False]))
-    occupancy.integrate(scan, np.array([4.05, 3.0, 0.0]))
-    assert occupancy.known_occupied[30, 50]
-    assert occupancy.known_free[30, 45] and occupancy.known_free[30, 60]
+    occupancy.integrate(scan, np.array([3.05, 3.05, 0.0]))
+    assert occupancy.known_occupied[40, 50]
+    assert occupancy.known_free[40, 45] and occupancy.known_free[40, 60]
+
+
+# --- with the real LiDAR -------------------------------------------------------------------
+def test_real_office_scan_agrees_with_ground_truth(office):
+    lidar_config = LidarConfig()
+    lidar = Lidar(office, lidar_config, np.random.default_rng(0))
+    scan = lidar.scan(office.start_pose)
+    scan2d = collapse_scan(scan.points, scan.no_return_dirs, lidar_config.mount_height, CONFIG)
+    occupancy = OccupancyGrid(office.grid, CONFIG)
+    occupancy.integrate(scan2d, office.start_pose)
+
+    solid = ~office.truth.free
+    # Padding with solid makes the perimeter walls (outside the grid) count as neighbours.
+    near_solid = ndimage.binary_dilation(np.pad(solid, 1, constant_values=True), np.ones((3, 3)))[1:-1, 1:-1]
+    deep_solid = ndimage.binary_erosion(solid, np.ones((3, 3)))
+    assert occupancy.known_occupied.sum() > 50
+    assert not (occupancy.known_occupied & ~near_solid).any()  # hits lie on surfaces (+-1 cell noise)
+    assert not (occupancy.known_free & deep_solid).any()
+    assert 0.01 < explored_fraction(occupancy, office.truth.reachable) < 0.5

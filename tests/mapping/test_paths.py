@@ -7,6 +7,11 @@ import pytest
 
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.config import PathConfig
+from explore_rl.robot import RobotConfig
+from explore_rl.sensors.lidar import Lidar, LidarConfig
+from explore_rl.mapping.config import FrontierConfig, OccupancyConfig
+from explore_rl.mapping.frontiers import find_frontiers
+from explore_rl.mapping.occupancy import OccupancyGrid, collapse_scan
 from explore_rl.mapping.paths import (
     PathPlanner,
     path_length,
@@ -96,27 +101,49 @@ def wall_with_gap_map():
     return grid, ~occupied, occupied
 
 
-def test_traversability_inflates_known_obstacles_only():
-    grid, free, occupied = wall_with_gap_map()
-    free[0, 0] = False  # an unknown cell far from obstacles
-    radius = 0.25
-    traversable, cost = traversability(free, occupied, grid, radius)
-
+def brute_force_clearance(grid, occupied, border):
+    """Distance from each cell centre to the nearest blocked cell centre, minus half a cell."""
+    ny, nx = grid.shape
+    blocked = [tuple(c) for c in np.argwhere(occupied)]
+    if border:
+        blocked += [(iy, ix) for iy in range(-1, ny + 1) for ix in (-1, nx)]
+        blocked += [(iy, ix) for iy in (-1, ny) for ix in range(nx)]
+    walls = grid.cell_to_world(np.array(blocked))
     centres = grid.cell_centers().reshape(-1, 2)
-    walls = grid.cell_to_world(np.argwhere(occupied))
-    clearance = np.linalg.norm(centres[:, None] - walls[None], axis=-1).min(axis=1).reshape(grid.shape)
+    distance = np.linalg.norm(centres[:, None] - walls[None], axis=-1).min(axis=1)
+    return distance.reshape(grid.shape) - RES / 2
+
+
+@pytest.mark.parametrize("border", [True, False])
+def test_traversability_inflates_known_obstacles_only(border):
+    grid, free, occupied = wall_with_gap_map()
+    free[10, 5] = False  # an unknown cell far from obstacles
+    radius = 0.27  # clearances are (k - 0.5) x 0.1 m on the axes: avoid ties
+    config = PathConfig(grid_border_is_obstacle=border)
+    traversable, cost = traversability(free, occupied, grid, radius, config)
+
+    clearance = brute_force_clearance(grid, occupied, border)
     np.testing.assert_array_equal(traversable, free & (clearance > radius + 1e-9))
-    assert not traversable[0, 0]
+    assert not traversable[10, 5] and traversable[10, 4]
+    assert traversable[0, 0] != border  # 0.05 m from the grid edge
     assert np.all(np.isinf(cost[~traversable])) and np.all(cost[traversable] >= 1.0)
-    # Cost falls as clearance grows (the row through the middle of the gap).
-    row = cost[12, :15][traversable[12, :15]]
-    assert np.all(np.diff(row) >= 0) and row[0] < row[-1]
+    expected_cost = 1.0 + config.clearance_weight * np.exp(-(clearance - radius) / config.clearance_scale)
+    np.testing.assert_allclose(cost[traversable], expected_cost[traversable])
+    # Cost falls as clearance grows.
+    order = np.argsort(clearance[traversable])
+    by_clearance = cost[traversable][order]
+    assert np.all(np.diff(by_clearance) <= 1e-12) and by_clearance[0] > by_clearance[-1]
 
 
 def test_no_obstacles_gives_uniform_minimum_cost():
     grid = GridSpec((0.0, 0.0), RES, (5, 5))
-    traversable, cost = traversability(np.ones(grid.shape, bool), np.zeros(grid.shape, bool), grid, 0.3)
+    free, occupied = np.ones(grid.shape, bool), np.zeros(grid.shape, bool)
+    config = PathConfig(grid_border_is_obstacle=False)
+    traversable, cost = traversability(free, occupied, grid, 0.3, config)
     assert traversable.all() and np.all(cost == 1.0)
+    # With the border as an obstacle only the centre cell is > 0.17 m from the edge.
+    traversable, _ = traversability(free, occupied, grid, 0.17)
+    assert np.argwhere(traversable).tolist() == [[2, 2]]
 
 
 def test_path_stays_out_of_inflated_obstacles():
@@ -156,11 +183,11 @@ def test_unreachable_and_blocked_goals_return_none():
 
 def test_start_inside_inflation_snaps_to_nearest_traversable_cell():
     grid, free, occupied = wall_with_gap_map()
-    traversable, cost = traversability(free, occupied, grid, 0.25)
+    traversable, cost = traversability(free, occupied, grid, 0.27)
     planner = PathPlanner(grid, traversable, cost, PathConfig(start_snap_radius=0.3))
-    # x = 1.32 is 0.18 m from the wall cell centres at x = 1.55; cells up to x = 1.3 are free.
+    # The wall cells start at x = 1.5: cells need centres < 1.23 m (ix <= 11, x < 1.2).
     field = planner.from_start(np.array([1.32, 0.35]))
-    assert field.start_cell.tolist() == [3, 12]
+    assert field.start_cell.tolist() == [3, 11]
     assert np.isfinite(field.distances).sum() > 100
 
     # Deep inside the wall, nothing is within the snap radius: everything unreachable.
@@ -179,3 +206,21 @@ def test_path_length_and_simplify():
     assert path_length(simplify_path(path)) == pytest.approx(path_length(path))
     back_and_forth = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.0]])
     np.testing.assert_array_equal(simplify_path(back_and_forth), back_and_forth)
+
+
+def test_office_frontiers_are_reachable_from_the_start(office):
+    """One real scan at the office start: frontiers, traversability and Dijkstra fit together."""
+    lidar_config, radius = LidarConfig(), RobotConfig().radius
+    scan = Lidar(office, lidar_config, np.random.default_rng(0)).scan(office.start_pose)
+    occupancy = OccupancyGrid(office.grid, OccupancyConfig())
+    occupancy.integrate(collapse_scan(scan.points, scan.no_return_dirs, lidar_config.mount_height), office.start_pose)
+    traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, office.grid, radius)
+    frontiers = find_frontiers(occupancy.known_free, occupancy.unknown, office.grid, FrontierConfig(), traversable)
+    field = PathPlanner(office.grid, traversable, cost).from_start(office.start_pose)
+
+    assert frontiers
+    for frontier in frontiers:
+        path = field.path_to(frontier.waypoint_cell)
+        assert path is not None
+        assert office.truth.drivable[tuple(frontier.waypoint_cell)]
+        assert office.is_free(path, radius).all()  # the real footprint never touches a solid

@@ -38,7 +38,8 @@ def brute_force_pairs(path_xy, kf_xy, kf_travel, current_travel, cfg):
     for i, p in enumerate(path_xy):
         for k, q in enumerate(kf_xy):
             d = float(np.linalg.norm(p - q))
-            if d <= cfg.r_lc and current_travel + path_travel[i] - kf_travel[k] > cfg.min_travel_gap:
+            gap = current_travel + path_travel[i] - kf_travel[k]
+            if d <= cfg.r_lc and gap > cfg.min_travel_gap:
                 out.append((i, k, d))
     return out
 
@@ -113,7 +114,8 @@ def test_matches_brute_force_on_random_scenes():
         assert {r.keyframe_index for r in got} <= set(revisited)
         # every revisited keyframe belongs to exactly one reported group, and each report is
         # the closest pair of its group
-        groups = np.split(revisited, np.flatnonzero(np.diff(revisited) > CFG.merge_keyframe_gap) + 1)
+        breaks = np.flatnonzero(np.diff(revisited) > CFG.merge_keyframe_gap) + 1
+        groups = np.split(revisited, breaks)
         assert len(got) == len(groups)
         for r, group in zip(got, groups):
             best = min((p for p in pairs if p[1] in set(group)), key=lambda t: (t[2], t[0]))

@@ -3,12 +3,16 @@ line of sight and the log-det utility, against independent brute-force reference
 
 from __future__ import annotations
 
+from dataclasses import asdict
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 from scipy.optimize import minimize_scalar
 
 from explore_rl.grid import GridSpec
-from explore_rl.planning.config import VirtualMapConfig
+from explore_rl.planning.config import PlanningConfig, VirtualMapConfig
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     covariance_intersection,
@@ -210,6 +214,10 @@ def test_predicted_map_matches_reference_loop():
     covs = vm.predict_landmark_covariances(poses, pose_covs, blocked)
     np.testing.assert_allclose(covs, reference_map(vm, poses, pose_covs, blocked), rtol=1e-6)
     assert np.array_equal(vm.covariances, vm.prior_covariances())  # pure
+    pairs = vm.visible_pairs(poses, blocked)
+    np.testing.assert_array_equal(
+        vm.predict_landmark_covariances(poses, pose_covs, blocked, pairs=pairs), covs
+    )
 
 
 def test_utility_drops_with_more_and_better_observations():
@@ -271,3 +279,9 @@ def test_rejects_bad_cell_size_and_mask():
         VirtualMap(grid, CFG).predict_landmark_covariances(
             np.zeros((1, 3)), np.zeros((1, 3, 3)), np.zeros((5, 5), dtype=bool)
         )
+
+
+def test_yaml_defaults_match_dataclasses():
+    """conf/planning/default.yaml repeats the dataclass defaults (config.py)."""
+    path = Path(__file__).parents[2] / "conf" / "planning" / "default.yaml"
+    assert yaml.safe_load(path.read_text()) == asdict(PlanningConfig())

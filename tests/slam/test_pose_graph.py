@@ -7,6 +7,7 @@ import pickle
 
 import gtsam
 import numpy as np
+import pytest
 
 from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix
 from explore_rl.slam.config import PoseGraphConfig
@@ -94,20 +95,28 @@ def test_marginals_match_dense_information_inverse():
     assert rel_diff(graph.joint_marginal_covariance(i, j), dense[np.ix_(idx, idx)]) < 1e-6
 
 
-def test_world_xy_covariance_rotates_body_frame_translation_block():
+@pytest.mark.parametrize("yaw_deg", [90.0, 60.0])  # at 90 deg, R and R^T give the same
+def test_world_xy_covariance_rotates_body_frame_translation_block(yaw_deg):
     config = PoseGraphConfig()
-    graph = PoseGraph(config, [2.0, 3.0, np.pi / 2])
-    # A scan match that pins body x (forward) and leaves body y loose.
-    cov = np.diag([1e-6, 1e-6, 1e-6, 0.001**2, 0.1**2, 1e-6])
-    graph.add_keyframe([1.0, 0.0, 0.0], 1, ScanMatch(se2_to_matrix([1.0, 0, 0]), cov, False, 0, 100, 0.0))
+    yaw = np.deg2rad(yaw_deg)
+    graph = PoseGraph(config, [2.0, 3.0, yaw])
+    # A scan match that pins the body direction 30 deg left of forward, loose across it.
+    u = np.array([np.cos(np.pi / 6), np.sin(np.pi / 6)])
+    w = np.array([-u[1], u[0]])
+    cov = np.diag([1e-6, 1e-6, 1e-6, 0.0, 0.0, 1e-6])
+    cov[3:5, 3:5] = 0.001**2 * np.outer(u, u) + 0.1**2 * np.outer(w, w)
+    ssm = ScanMatch(se2_to_matrix([1.0, 0, 0]), cov, False, 0, 100, 0.0)
+    graph.add_keyframe([1.0, 0.0, 0.0], 1, ssm)
     body = graph.marginal_covariance(1)[3:5, 3:5]
     R = graph.pose(1)[:2, :2]
     world = graph.world_xy_covariance(1)
-    assert abs(np.arctan2(R[1, 0], R[0, 0]) - np.pi / 2) < 1e-6
+    assert abs(np.arctan2(R[1, 0], R[0, 0]) - yaw) < 1e-6
     np.testing.assert_allclose(world, R @ body @ R.T, rtol=1e-9, atol=1e-15)
-    # Facing north, body x is world y: world y must be the tight axis.
-    assert body[0, 0] < 0.1 * body[1, 1]
-    assert world[1, 1] < 0.1 * world[0, 0]
+    # The pinned body direction (30 deg) points at yaw + 30 deg in the world.
+    tight_world = np.linalg.eigh(world)[1][:, 0]
+    expected = np.array([np.cos(yaw + np.pi / 6), np.sin(yaw + np.pi / 6)])
+    assert abs(abs(tight_world @ expected) - 1.0) < 1e-3, tight_world
+    assert np.linalg.eigvalsh(world)[0] < 0.1 * np.linalg.eigvalsh(world)[1]
     xy_yaw = graph.world_xy_yaw_covariance(1)
     np.testing.assert_allclose(xy_yaw[:2, :2], world)
     np.testing.assert_allclose(xy_yaw[2, 2], graph.marginal_covariance(1)[2, 2])

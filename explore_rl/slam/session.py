@@ -1,0 +1,224 @@
+"""A SLAM session: what the robot believes about its trajectory and map, and how wrong it is.
+
+Feed it the robot's motion steps; every ``keyframe_distance`` metres or
+``keyframe_angle_deg`` of odometry it takes a keyframe: a LiDAR scan at the *true* pose,
+a sequential scan-matching factor from the front end (seeded with the wheel-odometry
+delta), an odometry factor, one iSAM2 update, then the 2D occupancy grid and the 3D
+voxel map at the *estimated* poses (re-projected when estimates move by more than a
+cell). Metrics follow DESIGN.md: map error, ATE, 3D volume, explored %, degenerate scans.
+
+Poses in the graph are the robot base at z = 0; the sensor sits ``mount_height`` above it.
+A pure-z mount offset commutes with planar motion, so sensor-frame and base-frame deltas
+are the same transform.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+from kiss_icp.voxelization import voxel_down_sample
+
+from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix, transform_points, wrap_angle
+from explore_rl.mapping.config import MappingConfig
+from explore_rl.mapping.occupancy import OccupancyGrid, Scan2D, collapse_scan, explored_fraction
+from explore_rl.mapping.voxels import VoxelMap
+from explore_rl.robot import MotionStep
+from explore_rl.scene.build import Scene
+from explore_rl.sensors.lidar import Lidar
+from explore_rl.slam.config import SlamConfig
+from explore_rl.slam.frontend import ScanMatch, ScanMatcher
+from explore_rl.slam.pose_graph import PoseGraph
+
+
+@dataclass
+class Keyframe:
+    """What the session keeps of one keyframe."""
+
+    index: int
+    true_pose: np.ndarray
+    odom_pose: np.ndarray
+    travel: float
+    cloud: np.ndarray  # down-sampled scan, sensor frame
+    scan2d: Scan2D
+    error_points: np.ndarray  # the fixed sample of scan points for the map error
+    match: ScanMatch | None
+
+
+@dataclass
+class SlamMetrics:
+    keyframes: int
+    map_error_m: float
+    ate_m: float
+    volume_m3: float
+    explored: float
+    degenerate_registrations: int
+    loop_closures: int
+
+
+class StageTimer:
+    """Accumulated wall time per named stage."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = defaultdict(float)
+
+    @contextmanager
+    def __call__(self, stage: str) -> Iterator[None]:
+        start = time.perf_counter()
+        yield
+        self.seconds[stage] += time.perf_counter() - start
+
+
+def make_frontend(config: SlamConfig) -> ScanMatcher:
+    """The sequential front end named by ``config.frontend``."""
+    if config.frontend == "icp":
+        return ScanMatcher(config.scan_matcher)
+    raise ValueError(f"unknown slam.frontend={config.frontend!r}; choose icp")
+
+
+def map_error(world_from_sensor_est: np.ndarray, world_from_sensor_true: np.ndarray,
+              points: list[np.ndarray]) -> float:
+    """Mean over keyframes and their sample points of ``|T_est p - T_true p|`` (DESIGN.md)."""
+    per_keyframe = [
+        np.linalg.norm(transform_points(t_est, p) - transform_points(t_true, p), axis=1).mean()
+        for t_est, t_true, p in zip(world_from_sensor_est, world_from_sensor_true, points)
+        if len(p)
+    ]
+    return float(np.mean(per_keyframe)) if per_keyframe else 0.0
+
+
+def absolute_trajectory_error(estimated: np.ndarray, true: np.ndarray) -> float:
+    """RMSE of keyframe positions (no alignment: the graph's prior is the true start)."""
+    return float(np.sqrt(np.mean(np.sum((estimated[:, :2] - true[:, :2]) ** 2, axis=1))))
+
+
+class SlamSession:
+    """Keyframes, pose graph, maps and metrics of one run (see the module docstring)."""
+
+    def __init__(self, config: SlamConfig, mapping: MappingConfig, scene: Scene, lidar: Lidar,
+                 start_pose: np.ndarray, rng: np.random.Generator):
+        self.config = config
+        self.mapping = mapping
+        self.scene = scene
+        self.lidar = lidar
+        self.rng = rng
+        self.graph = PoseGraph(config.pose_graph, start_pose)
+        self.frontend = make_frontend(config)
+        self.occupancy = OccupancyGrid(scene.grid, mapping.occupancy)
+        self.voxels = VoxelMap(mapping.voxels)
+        self.keyframes: list[Keyframe] = []
+        self.timer = StageTimer()
+        self._map_poses = np.zeros((0, 3))
+        self._steps_since_keyframe = 0
+        self._take_keyframe(np.asarray(start_pose, float), np.asarray(start_pose, float), 0.0)
+
+    # ------------------------------------------------------------------ driving
+
+    def observe(self, step: MotionStep) -> bool:
+        """Account for one motion step; take a keyframe when odometry says so."""
+        self._steps_since_keyframe += 1
+        delta = se2_between(self.keyframes[-1].odom_pose, step.odom_pose)
+        far = np.hypot(delta[0], delta[1]) >= self.config.keyframe_distance
+        turned = abs(delta[2]) >= np.deg2rad(self.config.keyframe_angle_deg)
+        if far or turned:
+            self._take_keyframe(step.true_pose, step.odom_pose, step.travelled)
+            return True
+        return False
+
+    def belief(self, odom_pose: np.ndarray) -> np.ndarray:
+        """Best current pose estimate: the last keyframe's estimate plus odometry since."""
+        last = self.keyframes[-1]
+        return se2_compose(self.graph.poses_se2()[-1], se2_between(last.odom_pose, odom_pose))
+
+    def _take_keyframe(self, true_pose: np.ndarray, odom_pose: np.ndarray, travel: float) -> None:
+        with self.timer("lidar"):
+            scan = self.lidar.scan(true_pose)
+            cloud = voxel_down_sample(scan.points, self.config.keyframe_cloud_voxel)
+            scan2d = collapse_scan(scan.points, scan.no_return_dirs,
+                                   self.lidar.config.mount_height, self.mapping.occupancy)
+        first = not self.keyframes
+        wheel_delta = np.eye(4) if first else se2_to_matrix(
+            se2_between(self.keyframes[-1].odom_pose, odom_pose))
+        with self.timer("registration"):
+            match = self.frontend.register(scan.points, wheel_delta)
+        if not first:
+            with self.timer("isam2"):
+                self.graph.add_keyframe(wheel_delta, max(self._steps_since_keyframe, 1), match)
+        sample = self.rng.choice(len(scan.points), min(len(scan.points), self.config.map_error_points),
+                                 replace=False) if len(scan.points) else np.zeros(0, dtype=int)
+        self.keyframes.append(Keyframe(len(self.keyframes), np.asarray(true_pose, float).copy(),
+                                       np.asarray(odom_pose, float).copy(), travel, cloud, scan2d,
+                                       scan.points[sample], None if first else match))
+        self._steps_since_keyframe = 0
+        with self.timer("maps"):
+            self.update_maps()
+
+    # ------------------------------------------------------------------ maps
+
+    def world_from_sensor(self, poses_se2: np.ndarray) -> np.ndarray:
+        h = self.lidar.config.mount_height
+        return np.array([se2_to_matrix(p, h) for p in poses_se2])
+
+    def update_maps(self) -> None:
+        """Integrate the newest keyframe, or rebuild both maps if estimates moved enough."""
+        estimates = self.graph.poses_se2()
+        if self.occupancy.needs_rebuild(self._map_poses, estimates):
+            self.rebuild_maps(estimates)
+            return
+        keyframe = self.keyframes[-1]
+        self.occupancy.integrate(keyframe.scan2d, estimates[-1])
+        self.voxels.insert(transform_points(self.world_from_sensor(estimates[-1:])[0], keyframe.cloud))
+        self._map_poses = np.vstack([self._map_poses, estimates[-1:]])
+
+    def rebuild_maps(self, estimates: np.ndarray | None = None) -> None:
+        estimates = self.graph.poses_se2() if estimates is None else estimates
+        self.occupancy.rebuild([k.scan2d for k in self.keyframes], estimates)
+        self.voxels.rebuild([k.cloud for k in self.keyframes], list(self.world_from_sensor(estimates)))
+        self._map_poses = estimates.copy()
+
+    # ------------------------------------------------------------------ metrics
+
+    def true_poses(self) -> np.ndarray:
+        return np.array([k.true_pose for k in self.keyframes])
+
+    def odometry_poses(self) -> np.ndarray:
+        return np.array([k.odom_pose for k in self.keyframes])
+
+    def metrics(self, estimates: np.ndarray | None = None) -> SlamMetrics:
+        """Metrics of the SLAM estimate, or of any other ``estimates`` (e.g. odometry)."""
+        estimates = self.graph.poses_se2() if estimates is None else estimates
+        truth = self.true_poses()
+        return SlamMetrics(
+            keyframes=len(self.keyframes),
+            map_error_m=map_error(self.world_from_sensor(estimates), self.world_from_sensor(truth),
+                                  [k.error_points for k in self.keyframes]),
+            ate_m=absolute_trajectory_error(estimates, truth),
+            volume_m3=self.voxels.occupied_volume(),
+            explored=explored_fraction(self.occupancy, self.scene.truth.reachable),
+            degenerate_registrations=self.degenerate_registrations,
+            loop_closures=sum(n for kind, n in self.graph.factor_counts.items()
+                              if kind not in ("odometry", "scan_matching")),
+        )
+
+    @property
+    def degenerate_registrations(self) -> int:
+        return sum(1 for k in self.keyframes if k.match is not None and k.match.degenerate)
+
+    # ------------------------------------------------------------------ drawing
+
+    def draw(self, ax, ellipse_every: int = 5) -> None:
+        """Estimated map, true and estimated trajectories, 3-sigma pose ellipses."""
+        from explore_rl import viz
+
+        viz.draw_mask(ax, self.scene.grid, self.occupancy.known_free, "tab:cyan", alpha=0.25)
+        viz.draw_mask(ax, self.scene.grid, self.occupancy.known_occupied, "black", alpha=0.9, zorder=1)
+        estimates = self.graph.poses_se2()
+        viz.draw_trajectory(ax, self.true_poses(), "tab:green", "true")
+        viz.draw_trajectory(ax, self.odometry_poses(), "tab:gray", "odometry", lw=0.8)
+        viz.draw_trajectory(ax, estimates, "tab:blue", "SLAM estimate")
+        viz.draw_ellipses(ax, estimates[:, :2], self.graph.all_world_xy_covariances(), every=ellipse_every)
+        ax.legend(loc="upper right", fontsize=7)
