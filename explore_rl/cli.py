@@ -95,3 +95,74 @@ def tour(cfg: DictConfig) -> None:
     ax.set_title(f"{scene.layout.name} tour: ATE {slam.ate_m:.3f} m (odometry {odom.ate_m:.3f} m)")
     out = config.out or "tour.png"
     print(f"wrote {viz.save(fig, out)}")
+
+
+def exploration_figure(explorer, title: str):
+    """Estimated map, true/estimated trajectories, ellipses, candidate paths (paper Fig. 7)."""
+    from explore_rl import viz
+
+    fig, ax = viz.new_figure(explorer.scene.layout)
+    viz.draw_layout(ax, explorer.scene.layout, color="0.85")
+    explorer.session.draw(ax)
+    state = explorer.last_state
+    if state is not None:
+        viz.draw_candidates(ax, [c.path for c in state.candidates], explorer.last_choice)
+    viz.draw_robot(ax, explorer.robot.true_pose, explorer.config.robot.radius)
+    ax.set_title(title, fontsize=9)
+    return fig
+
+
+def write_csv(path: Path, rows: list[dict]) -> None:
+    import csv
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as handle:
+        if rows:
+            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+
+
+@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+def explore(cfg: DictConfig) -> None:
+    """Explore a scene with a policy; write decisions.csv, a figure and optionally a GIF."""
+    from tqdm import tqdm
+
+    from explore_rl import viz
+    from explore_rl.runner import Explorer
+
+    try:
+        config = to_config(cfg)
+        explorer = Explorer(config)
+    except ValueError as error:
+        fail(str(error))
+    name = f"{explorer.scene.layout.name}_{config.policy.name}_seed{config.seed}"
+    out_dir = Path(config.out or config.explore.out_dir)
+    frames = []
+    bar = tqdm(total=100, desc=f"explored % ({name})", disable=not config.explore.progress_bar,
+               bar_format="{desc}: {n:.0f}/{total} |{bar}| {elapsed}")
+
+    def on_decision(explorer, record) -> None:
+        bar.update(100 * record.explored - bar.n)
+        if config.explore.animation:
+            fig = exploration_figure(explorer, f"decision {record.decision}: {100 * record.explored:.0f} %")
+            frames.append(viz.figure_to_array(fig))
+            viz.plt.close(fig)
+
+    result = explorer.run(on_decision)
+    bar.close()
+    write_csv(out_dir / f"{name}.csv", result.table())
+    last = result.records[-1] if result.records else None
+    summary = (f"{result.status.value}: {len(result.records)} decisions, "
+               f"{explorer.robot.travelled:.1f} m, explored {100 * (last.explored if last else 0):.1f} %, "
+               f"map error {last.map_error_m if last else 0:.3f} m, loop closures {last.loop_closures if last else 0}")
+    fig = exploration_figure(explorer, f"{name}: {summary}")
+    figure = viz.save(fig, out_dir / f"{name}.png")
+    print(summary)
+    print(f"wrote {out_dir / (name + '.csv')} and {figure}")
+    if frames:
+        import imageio.v2 as imageio
+
+        gif = out_dir / f"{name}.gif"
+        imageio.mimsave(gif, frames, duration=0.4)
+        print(f"wrote {gif}")

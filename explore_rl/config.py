@@ -14,7 +14,9 @@ from hydra.core.config_store import ConfigStore
 
 from explore_rl.mapping.config import MappingConfig
 from explore_rl.planning.config import PlanningConfig
+from explore_rl.planning.policies import PolicyConfig
 from explore_rl.robot import RobotConfig
+from explore_rl.runner import ExploreConfig
 from explore_rl.scene.config import SceneConfig
 from explore_rl.sensors.lidar import LidarConfig
 from explore_rl.slam.config import SlamConfig
@@ -32,6 +34,8 @@ class Config:
     mapping: MappingConfig = field(default_factory=MappingConfig)
     planning: PlanningConfig = field(default_factory=PlanningConfig)
     tour: TourConfig = field(default_factory=TourConfig)
+    explore: ExploreConfig = field(default_factory=ExploreConfig)
+    policy: PolicyConfig = field(default_factory=PolicyConfig)
 
 
 def register_configs() -> None:
@@ -55,5 +59,9 @@ def validate(config: Config) -> None:
             raise ValueError(f"{key} must be positive, got {value}")
     if config.slam.frontend not in ("icp", "model"):
         raise ValueError(f"slam.frontend={config.slam.frontend!r}: choose slam=icp or slam=model")
+    if config.policy.name not in ("nearest", "random", "em", "learned"):
+        raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random or em")
+    if not 0 < config.explore.target_explored <= 1:
+        raise ValueError(f"explore.target_explored must be in (0, 1], got {config.explore.target_explored}")
     if config.lidar.channels < 1:
         raise ValueError(f"lidar.channels must be >= 1, got {config.lidar.channels}")

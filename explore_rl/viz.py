@@ -79,3 +79,21 @@ def save(fig, path: str | Path) -> Path:
     fig.savefig(path, dpi=130, bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def draw_candidates(ax, paths: list[np.ndarray], chosen: int) -> None:
+    """Candidate frontier paths in grey, the chosen one highlighted (paper Fig. 7)."""
+    for i, path in enumerate(paths):
+        if i != chosen:
+            ax.plot(path[:, 0], path[:, 1], color="0.55", lw=0.8, zorder=8)
+            ax.plot(*path[-1], "o", color="0.55", ms=3, zorder=8)
+    if 0 <= chosen < len(paths):
+        path = paths[chosen]
+        ax.plot(path[:, 0], path[:, 1], color="deepskyblue", lw=2.0, zorder=9, label="chosen path")
+        ax.plot(*path[-1], "*", color="deepskyblue", ms=10, zorder=9)
+
+
+def figure_to_array(fig) -> np.ndarray:
+    """RGB pixels of a figure (for animations)."""
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()

@@ -16,7 +16,7 @@ class OccupancyConfig:
     # Height classes in the gravity-aligned base frame (metres above the floor).
     floor_max_height: float = 0.1  # below: floor, i.e. free-space evidence
     obstacle_min_height: float = 0.15  # from here ...
-    obstacle_max_height: float = 0.6  # ... to here (robot height + margin): obstacle; above: ignored
+    obstacle_max_height: float = 0.6  # ... to here (robot height + margin); above: ignored
     azimuth_bins: int = 900  # 360 deg / 0.4 deg
     max_range: float = 3.0  # sensor range (m); no-return rays clear up to it
     # Log-odds update per scan and clamping.

@@ -52,7 +52,7 @@ def azimuth_bin_centres(n_bins: int) -> np.ndarray:
 
 
 def azimuth_bin_index(xy: np.ndarray, n_bins: int) -> np.ndarray:
-    """Azimuth bin of each horizontal vector ``xy[..., 2]`` (bins as in :func:`azimuth_bin_centres`)."""
+    """Azimuth bin of each horizontal vector ``xy[..., 2]`` (see :func:`azimuth_bin_centres`)."""
     azimuth = np.arctan2(xy[..., 1], xy[..., 0])
     index = np.round(azimuth * (n_bins / (2.0 * np.pi))).astype(np.int64)
     return np.mod(index, n_bins)
@@ -185,7 +185,8 @@ class OccupancyGrid:
         free = self._mark(
             (origin[0] + cos[:, None] * t)[before_end], (origin[1] + sin[:, None] * t)[before_end]
         )
-        free |= self._mark(origin[0] + cos[~hit] * ranges[~hit], origin[1] + sin[~hit] * ranges[~hit])
+        end = ranges[~hit]
+        free |= self._mark(origin[0] + cos[~hit] * end, origin[1] + sin[~hit] * end)
         hit_range = ranges[hit] + self.config.hit_nudge_cells
         occupied = self._mark(origin[0] + cos[hit] * hit_range, origin[1] + sin[hit] * hit_range)
         free &= ~occupied

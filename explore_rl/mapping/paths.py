@@ -46,7 +46,9 @@ def traversability(
     return traversable, np.where(traversable, cost, np.inf)
 
 
-def obstacle_clearance(occupied: np.ndarray, grid: GridSpec, border_is_obstacle: bool = True) -> np.ndarray:
+def obstacle_clearance(
+    occupied: np.ndarray, grid: GridSpec, border_is_obstacle: bool = True
+) -> np.ndarray:
     """Distance (m) from each cell centre to the nearest occupied cell's edge.
 
     An occupied cell only says the surface lies somewhere inside it, so the distance is
@@ -193,7 +195,10 @@ class PathPlanner:
             self.graph, directed=True, indices=source, return_predecessors=True
         )
         return DistanceField(
-            self.grid, cell, distances.reshape(self.grid.shape), predecessors.reshape(self.grid.shape)
+            self.grid,
+            cell,
+            distances.reshape(self.grid.shape),
+            predecessors.reshape(self.grid.shape),
         )
 
 

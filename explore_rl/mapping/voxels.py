@@ -67,13 +67,17 @@ class VoxelMap:
         keys = np.floor(points / self.voxel_size).astype(np.int64)
         self.keys = np.union1d(self.keys, pack_keys(keys))
 
-    def rebuild(self, clouds_sensor: Sequence[np.ndarray], world_from_sensor: Sequence[np.ndarray]) -> None:
+    def rebuild(
+        self, clouds_sensor: Sequence[np.ndarray], world_from_sensor: Sequence[np.ndarray]
+    ) -> None:
         """Clear and re-insert every cloud at its (possibly corrected) 4x4 pose."""
         if len(clouds_sensor) != len(world_from_sensor):
             raise ValueError(f"{len(clouds_sensor)} clouds but {len(world_from_sensor)} transforms")
         self.clear()
         world = [
-            transform_points(np.asarray(T, dtype=float), np.asarray(cloud, dtype=float).reshape(-1, 3))
+            transform_points(
+                np.asarray(T, dtype=float), np.asarray(cloud, dtype=float).reshape(-1, 3)
+            )
             for cloud, T in zip(clouds_sensor, world_from_sensor)
         ]
         if world:

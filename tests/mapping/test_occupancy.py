@@ -79,7 +79,8 @@ def test_no_return_direction_clears_to_max_range():
 
 def test_upward_no_return_clears_only_inside_the_obstacle_band():
     elevation = np.radians(15.0)
-    scan = collapse_scan(np.zeros((0, 3)), np.array([direction_at(7, elevation)]), SENSOR_HEIGHT, CONFIG)
+    dirs = np.array([direction_at(7, elevation)])
+    scan = collapse_scan(np.zeros((0, 3)), dirs, SENSOR_HEIGHT, CONFIG)
     # The ray reaches the top of the band (0.6 m) after 0.1 / tan(15 deg) horizontally.
     expected = (CONFIG.obstacle_max_height - SENSOR_HEIGHT) / np.tan(elevation)
     assert scan.ranges[7] == pytest.approx(expected)
@@ -236,9 +237,11 @@ def test_real_office_scan_agrees_with_ground_truth(office):
 
     solid = ~office.truth.free
     # Padding with solid makes the perimeter walls (outside the grid) count as neighbours.
-    near_solid = ndimage.binary_dilation(np.pad(solid, 1, constant_values=True), np.ones((3, 3)))[1:-1, 1:-1]
+    padded = np.pad(solid, 1, constant_values=True)
+    near_solid = ndimage.binary_dilation(padded, np.ones((3, 3)))[1:-1, 1:-1]
     deep_solid = ndimage.binary_erosion(solid, np.ones((3, 3)))
     assert occupancy.known_occupied.sum() > 50
-    assert not (occupancy.known_occupied & ~near_solid).any()  # hits lie on surfaces (+-1 cell noise)
+    # Hits lie on surfaces, give or take a cell of range noise.
+    assert not (occupancy.known_occupied & ~near_solid).any()
     assert not (occupancy.known_free & deep_solid).any()
     assert 0.01 < explored_fraction(occupancy, office.truth.reachable) < 0.5

@@ -6,10 +6,7 @@ import numpy as np
 import pytest
 
 from explore_rl.grid import GridSpec
-from explore_rl.mapping.config import PathConfig
-from explore_rl.robot import RobotConfig
-from explore_rl.sensors.lidar import Lidar, LidarConfig
-from explore_rl.mapping.config import FrontierConfig, OccupancyConfig
+from explore_rl.mapping.config import FrontierConfig, OccupancyConfig, PathConfig
 from explore_rl.mapping.frontiers import find_frontiers
 from explore_rl.mapping.occupancy import OccupancyGrid, collapse_scan
 from explore_rl.mapping.paths import (
@@ -18,6 +15,8 @@ from explore_rl.mapping.paths import (
     simplify_path,
     traversability,
 )
+from explore_rl.robot import RobotConfig
+from explore_rl.sensors.lidar import Lidar, LidarConfig
 
 RES = 0.1
 
@@ -35,7 +34,9 @@ def reference_dijkstra(traversable, cost, start, allow_corner_cutting):
         for dy in (-1, 0, 1):
             for dx in (-1, 0, 1):
                 jy, jx = iy + dy, ix + dx
-                if (dy, dx) == (0, 0) or not (0 <= jy < ny and 0 <= jx < nx) or not traversable[jy, jx]:
+                if (dy, dx) == (0, 0) or not (0 <= jy < ny and 0 <= jx < nx):
+                    continue
+                if not traversable[jy, jx]:
                     continue
                 diagonal = dy != 0 and dx != 0
                 if diagonal and not allow_corner_cutting:
@@ -127,7 +128,8 @@ def test_traversability_inflates_known_obstacles_only(border):
     assert not traversable[10, 5] and traversable[10, 4]
     assert traversable[0, 0] != border  # 0.05 m from the grid edge
     assert np.all(np.isinf(cost[~traversable])) and np.all(cost[traversable] >= 1.0)
-    expected_cost = 1.0 + config.clearance_weight * np.exp(-(clearance - radius) / config.clearance_scale)
+    extra = clearance - radius
+    expected_cost = 1.0 + config.clearance_weight * np.exp(-extra / config.clearance_scale)
     np.testing.assert_allclose(cost[traversable], expected_cost[traversable])
     # Cost falls as clearance grows.
     order = np.argsort(clearance[traversable])
@@ -213,9 +215,11 @@ def test_office_frontiers_are_reachable_from_the_start(office):
     lidar_config, radius = LidarConfig(), RobotConfig().radius
     scan = Lidar(office, lidar_config, np.random.default_rng(0)).scan(office.start_pose)
     occupancy = OccupancyGrid(office.grid, OccupancyConfig())
-    occupancy.integrate(collapse_scan(scan.points, scan.no_return_dirs, lidar_config.mount_height), office.start_pose)
-    traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, office.grid, radius)
-    frontiers = find_frontiers(occupancy.known_free, occupancy.unknown, office.grid, FrontierConfig(), traversable)
+    scan2d = collapse_scan(scan.points, scan.no_return_dirs, lidar_config.mount_height)
+    occupancy.integrate(scan2d, office.start_pose)
+    free, occupied, grid = occupancy.known_free, occupancy.known_occupied, office.grid
+    traversable, cost = traversability(free, occupied, grid, radius)
+    frontiers = find_frontiers(free, occupancy.unknown, grid, FrontierConfig(), traversable)
     field = PathPlanner(office.grid, traversable, cost).from_start(office.start_pose)
 
     assert frontiers

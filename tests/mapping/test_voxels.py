@@ -55,7 +55,8 @@ def test_rebuild_uses_the_new_transforms():
     np.testing.assert_allclose(voxels.points()[:, 2], 0.05)
     first = voxels.points()
 
-    voxels.rebuild([cloud_sensor, cloud_sensor], [se2_to_matrix(np.array([2.0, 0.0, 0.0]), z=0.5)] * 2)
+    moved = se2_to_matrix(np.array([2.0, 0.0, 0.0]), z=0.5)
+    voxels.rebuild([cloud_sensor, cloud_sensor], [moved, moved])
     assert voxels.occupied_count == 100
     np.testing.assert_allclose(np.sort(voxels.points()[:, 0]), np.sort(first[:, 0] + 2.0))
 

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
+from pathlib import Path
 
 import numpy as np
+import yaml
 
 from explore_rl.geometry import matrix_to_se2, se2_between, se2_to_matrix, transform_points
-from explore_rl.slam.config import ScanMatcherConfig
+from explore_rl.slam.config import PoseGraphConfig, ScanMatcherConfig
 from explore_rl.slam.frontend import ScanMatch, ScanMatcher
 
 SENSOR_HEIGHT = 0.4
@@ -171,3 +174,11 @@ def test_pickle_restarts_with_empty_map():
     assert len(restored.local_map_points) == 0
     match = restored.register(scan(room_points(rng), [2.3, 2, 0], rng), np.eye(4))
     assert isinstance(match, ScanMatch) and match.degenerate
+
+
+def test_conf_yaml_mirrors_config_defaults():
+    path = Path(__file__).resolve().parents[2] / "conf" / "slam" / "icp.yaml"
+    conf = yaml.safe_load(path.read_text())
+    assert conf["frontend"] == "icp"
+    for section, cls in (("pose_graph", PoseGraphConfig), ("scan_matcher", ScanMatcherConfig)):
+        assert conf[section] == dataclasses.asdict(cls()), section

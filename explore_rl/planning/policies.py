@@ -1,0 +1,66 @@
+"""Exploration policies behind one small interface: given the exploration state, pick a frontier.
+
+Baselines live here (nearest frontier, random frontier); the EM planner and the learned
+policy implement the same :class:`Policy` protocol.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from explore_rl.runner import ExplorationState
+
+
+@dataclass
+class PolicyConfig:
+    """The ``policy`` config group. ``name``: nearest, random, em (or learned, later)."""
+
+    name: str = "nearest"
+    # EM: at most this many candidate frontiers are evaluated (nearest first).
+    max_candidates: int = 10
+
+
+class Policy(Protocol):
+    name: str
+
+    def choose(self, state: "ExplorationState") -> int:
+        """Index into ``state.candidates`` of the frontier to visit next."""
+        ...
+
+
+class NearestFrontier:
+    """Yamauchi's nearest frontier: the candidate with the shortest path."""
+
+    name = "nearest"
+
+    def choose(self, state: "ExplorationState") -> int:
+        return state.nearest
+
+
+class RandomFrontier:
+    """A uniformly random reachable frontier (seeded)."""
+
+    name = "random"
+
+    def __init__(self, rng: np.random.Generator):
+        self.rng = rng
+
+    def choose(self, state: "ExplorationState") -> int:
+        return int(self.rng.integers(len(state.candidates)))
+
+
+def make_policy(config: PolicyConfig, rng: np.random.Generator, **context) -> Policy:
+    """The policy named by ``config.name``."""
+    if config.name == "nearest":
+        return NearestFrontier()
+    if config.name == "random":
+        return RandomFrontier(rng)
+    if config.name == "em":
+        from explore_rl.planning.em import EMPlanner
+
+        return EMPlanner(config, **context)
+    raise ValueError(f"unknown policy.name={config.name!r}; choose nearest, random or em")

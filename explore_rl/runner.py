@@ -1,0 +1,229 @@
+"""The exploration loop every policy runs in: observe -> decide -> drive, until done.
+
+One :class:`Explorer` owns a scene, a robot, a LiDAR and a SLAM session. ``observe()``
+builds the :class:`ExplorationState` (frontiers of the estimated map, one Dijkstra from
+the robot's belief pose, a path per reachable frontier); a policy picks a candidate;
+``drive()`` follows its path with SLAM at every keyframe. ``run()`` repeats until 85 %
+explored, no reachable frontier, the travel budget or the decision cap, and logs one
+:class:`DecisionRecord` per decision. The same object backs the TorchRL env later.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from explore_rl.mapping.frontiers import Frontier, find_frontiers
+from explore_rl.mapping.paths import DistanceField, PathPlanner, path_length, simplify_path, traversability
+from explore_rl.planning.policies import Policy, make_policy
+from explore_rl.robot import PathStatus, Robot
+from explore_rl.scene.build import Scene, make_scene
+from explore_rl.sensors.lidar import Lidar
+from explore_rl.slam.session import SlamSession
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class ExploreConfig:
+    """The ``explore`` config group: when a run ends and what it writes."""
+
+    target_explored: float = 0.85
+    travel_budget: float = 400.0
+    max_decisions: int = 300
+    # a frontier whose path was blocked before the robot moved this far is skipped from then on
+    blocked_progress: float = 0.05
+    # frontiers whose waypoint lies this close to an already visited waypoint are skipped
+    # (frontier cells that stay unknown after a visit, e.g. noisy wall cells)
+    visited_radius: float = 0.5
+    progress_bar: bool = True
+    animation: bool = False
+    out_dir: str = "out/explore"
+
+
+class Status(str, Enum):
+    RUNNING = "running"
+    EXPLORED = "explored"
+    NO_FRONTIER = "no_reachable_frontier"
+    BUDGET = "travel_budget"
+    MAX_DECISIONS = "max_decisions"
+
+
+@dataclass
+class Candidate:
+    frontier: Frontier
+    path: np.ndarray  # (K, 2) world xy from the robot to the frontier's waypoint
+    length: float
+
+
+@dataclass
+class ExplorationState:
+    """What a policy sees at a decision."""
+
+    session: SlamSession
+    pose: np.ndarray  # belief pose [x, y, yaw]
+    travel: float
+    candidates: list[Candidate]
+    nearest: int
+    distance_field: DistanceField
+    traversable: np.ndarray
+
+
+@dataclass
+class DecisionRecord:
+    decision: int
+    travel_m: float
+    explored: float
+    volume_m3: float
+    map_error_m: float
+    ate_m: float
+    loop_closures: int
+    keyframes: int
+    candidates: int
+    chosen: int
+    chosen_x: float
+    chosen_y: float
+    path_length_m: float
+    path_status: str
+    ms_decide: float
+    ms_drive: float
+
+
+@dataclass
+class ExplorationResult:
+    status: Status
+    records: list[DecisionRecord] = field(default_factory=list)
+
+    def table(self) -> list[dict]:
+        return [asdict(r) for r in self.records]
+
+
+class Explorer:
+    """Scene + robot + LiDAR + SLAM + policy for one seeded run (see the module docstring)."""
+
+    def __init__(self, config, policy: Policy | None = None, scene: Scene | None = None):
+        self.config = config
+        self.rng = np.random.default_rng(config.seed)
+        self.scene = scene or make_scene(config.scene, config.robot, config.lidar)
+        start = self.scene.start_pose
+        self.lidar = Lidar(self.scene, config.lidar, np.random.default_rng([config.seed, 1]))
+        self.robot = Robot(config.robot, start, self.scene.is_free, np.random.default_rng([config.seed, 2]))
+        self.session = SlamSession(config.slam, config.mapping, self.scene, self.lidar, start,
+                                   np.random.default_rng([config.seed, 3]))
+        self.policy = policy or make_policy(config.policy, np.random.default_rng([config.seed, 4]),
+                                            planning=config.planning)
+        self.skipped_cells: set[tuple[int, int]] = set()
+        self.visited_waypoints = np.zeros((0, 2))
+        self.result = ExplorationResult(Status.RUNNING)
+        self.last_state: ExplorationState | None = None
+        self.last_choice: int = -1
+
+    # ------------------------------------------------------------------ observe
+
+    def observe(self) -> ExplorationState | None:
+        """The exploration state at the robot's belief pose; None if no frontier is reachable."""
+        occupancy = self.session.occupancy
+        grid = self.scene.grid
+        traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, grid,
+                                           self.config.robot.radius, self.config.mapping.paths)
+        frontiers = find_frontiers(occupancy.known_free, occupancy.unknown, grid,
+                                   self.config.mapping.frontiers, traversable)
+        pose = self.robot.belief_pose.copy()
+        field_ = PathPlanner(grid, traversable, cost, self.config.mapping.paths).from_start(pose[:2])
+        candidates = []
+        for frontier in frontiers:
+            if self.is_skipped(frontier):
+                continue
+            path = field_.path_to(frontier.waypoint_cell)
+            if path is None:
+                continue
+            path = np.vstack([pose[:2], path[1:]]) if len(path) > 1 else path
+            candidates.append(Candidate(frontier, path, path_length(path)))
+        if not candidates:
+            return None
+        nearest = int(np.argmin([c.length for c in candidates]))
+        return ExplorationState(self.session, pose, self.robot.travelled, candidates, nearest,
+                                field_, traversable)
+
+    def is_skipped(self, frontier: Frontier) -> bool:
+        """Frontiers blocked at once, or next to a waypoint already visited, are not offered."""
+        if tuple(int(c) for c in frontier.waypoint_cell) in self.skipped_cells:
+            return True
+        if len(self.visited_waypoints) == 0:
+            return False
+        gaps = np.linalg.norm(self.visited_waypoints - frontier.waypoint_xy, axis=1)
+        return bool(gaps.min() < self.config.explore.visited_radius)
+
+    # ------------------------------------------------------------------ act
+
+    def drive(self, candidate: Candidate) -> PathStatus:
+        """Follow a candidate's path with SLAM at every keyframe."""
+        for step in self.robot.follow(simplify_path(candidate.path)[1:]):
+            if self.session.observe(step):
+                self.robot.correct_belief(self.session.belief(self.robot.odom_pose))
+        return self.robot.status
+
+    def done(self) -> Status:
+        cfg = self.config.explore
+        explored = self.session.metrics().explored
+        if explored >= cfg.target_explored:
+            return Status.EXPLORED
+        if self.robot.travelled >= cfg.travel_budget:
+            return Status.BUDGET
+        if len(self.result.records) >= cfg.max_decisions:
+            return Status.MAX_DECISIONS
+        return Status.RUNNING
+
+    def step(self) -> DecisionRecord | None:
+        """One decision: observe, choose, drive, log. None (and a final status) when done."""
+        status = self.done()
+        if status is not Status.RUNNING:
+            self.result.status = status
+            return None
+        start = time.perf_counter()
+        state = self.observe()
+        if state is None:
+            self.result.status = Status.NO_FRONTIER
+            log.info("no reachable frontier: exploration ends")
+            return None
+        chosen = int(self.policy.choose(state))
+        if not 0 <= chosen < len(state.candidates):
+            raise ValueError(f"policy {self.policy.name} chose {chosen} of {len(state.candidates)} candidates")
+        ms_decide = 1e3 * (time.perf_counter() - start)
+        self.last_state, self.last_choice = state, chosen
+        candidate = state.candidates[chosen]
+        start, travel_before = time.perf_counter(), self.robot.travelled
+        path_status = self.drive(candidate)
+        if path_status is PathStatus.REACHED:
+            self.visited_waypoints = np.vstack([self.visited_waypoints, candidate.frontier.waypoint_xy])
+        if path_status is PathStatus.BLOCKED and self.robot.travelled - travel_before < self.config.explore.blocked_progress:
+            self.skipped_cells.add(tuple(int(c) for c in candidate.frontier.waypoint_cell))
+            log.warning("path to frontier %s blocked at once; skipping it", candidate.frontier.waypoint_xy.round(2))
+        record = self.record(state, chosen, path_status, ms_decide, 1e3 * (time.perf_counter() - start))
+        self.result.records.append(record)
+        return record
+
+    def record(self, state: ExplorationState, chosen: int, path_status: PathStatus,
+               ms_decide: float, ms_drive: float) -> DecisionRecord:
+        metrics = self.session.metrics()
+        candidate = state.candidates[chosen]
+        return DecisionRecord(
+            decision=len(self.result.records), travel_m=self.robot.travelled,
+            explored=metrics.explored, volume_m3=metrics.volume_m3, map_error_m=metrics.map_error_m,
+            ate_m=metrics.ate_m, loop_closures=metrics.loop_closures, keyframes=metrics.keyframes,
+            candidates=len(state.candidates), chosen=chosen,
+            chosen_x=float(candidate.frontier.waypoint_xy[0]), chosen_y=float(candidate.frontier.waypoint_xy[1]),
+            path_length_m=candidate.length, path_status=path_status.value,
+            ms_decide=ms_decide, ms_drive=ms_drive,
+        )
+
+    def run(self, on_decision=None) -> ExplorationResult:
+        """Explore until done; ``on_decision(explorer, state_record)`` is called after each decision."""
+        while (record := self.step()) is not None:
+            if on_decision is not None:
+                on_decision(self, record)
+        return self.result
