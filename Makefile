@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/explore-rl-tour out=out/demo_tour.png
+	$(VENV)/bin/explore-rl-explore scene=street policy=nearest seed=0 out=out/demo
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2

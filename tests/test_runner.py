@@ -1,0 +1,77 @@
+"""The exploration loop: clean endings, safe paths, and nearest frontier on the street."""
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+
+from explore_rl.cli import CONF_DIR
+from explore_rl.runner import Explorer, Status
+
+
+def load_config(*overrides: str):
+    with initialize_config_dir(CONF_DIR, version_base="1.3"):
+        cfg = compose("config", overrides=list(overrides))
+    return OmegaConf.to_object(cfg)
+
+
+@pytest.fixture
+def closet(tmp_path):
+    """A 2 m closet whose only way on is a 0.4 m slot: the room beyond can't be reached."""
+    path = tmp_path / "closet.yaml"
+    path.write_text(
+        "version: 1\nname: closet\nsize: [8.0, 2.0]\n"
+        "walls:\n  - {from: [2.0, 0.0], to: [2.0, 1.6]}\n"
+        "starts:\n  - [1.0, 1.0, 0.0]\n"
+    )
+    return path
+
+
+def test_no_reachable_frontier_ends_cleanly(closet):
+    config = load_config("scene=file", f"scene.path={closet}", "explore.progress_bar=false")
+    result = Explorer(config).run()
+    assert result.status is Status.NO_FRONTIER
+    assert len(result.records) <= 2
+
+
+def test_candidate_paths_stay_on_traversable_cells():
+    config = load_config("scene=street", "explore.max_decisions=4", "explore.progress_bar=false")
+    explorer = Explorer(config)
+    for _ in range(4):
+        state = explorer.observe()
+        assert state is not None
+        grid = explorer.scene.grid
+        for candidate in state.candidates:
+            cells = grid.world_to_cell(candidate.path[1:])
+            assert state.traversable[cells[:, 0], cells[:, 1]].all()
+            assert candidate.length == pytest.approx(
+                np.linalg.norm(np.diff(candidate.path, axis=0), axis=1).sum())
+        assert state.candidates[state.nearest].length == min(c.length for c in state.candidates)
+        explorer.step()
+
+
+def test_decision_records_are_logged():
+    config = load_config("scene=street", "explore.max_decisions=3", "explore.progress_bar=false")
+    result = Explorer(config).run()
+    assert result.status is Status.MAX_DECISIONS
+    assert [r.decision for r in result.records] == [0, 1, 2]
+    travel = [r.travel_m for r in result.records]
+    assert travel == sorted(travel) and travel[-1] > 0
+    assert all(0 <= r.explored <= 1 for r in result.records)
+
+
+def test_random_policy_is_seeded():
+    runs = []
+    for _ in range(2):
+        config = load_config("scene=street", "policy=random", "explore.max_decisions=3",
+                             "explore.progress_bar=false", "seed=4")
+        runs.append([(r.chosen_x, r.chosen_y) for r in Explorer(config).run().records])
+    assert runs[0] == runs[1]
+
+
+@pytest.mark.slow
+def test_nearest_frontier_explores_the_street_within_budget():
+    config = load_config("scene=street", "explore.progress_bar=false", "explore.travel_budget=250")
+    result = Explorer(config).run()
+    assert result.status is Status.EXPLORED
+    assert result.records[-1].explored >= 0.85
