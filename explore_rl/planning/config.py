@@ -43,9 +43,32 @@ class RewardConfig:
 
 
 @dataclass
+class EMConfig:
+    """EM-specific settings: the predicted measurements' noise and how U' is computed."""
+
+    # Predicted sequential scan matching (SSM), planar axes; defaults near the measured
+    # kiss-icp step accuracy (~1 cm, ~0.15 deg; DESIGN.md) = the scan matcher's
+    # covariance floors (slam.scan_matcher.min_sigma_*).
+    ssm_sigma_translation: float = 0.01
+    ssm_sigma_rotation_deg: float = 0.15
+    # Predicted loop closures (pose matching against an old keyframe up to r_lc away).
+    loop_sigma_translation: float = 0.05
+    loop_sigma_rotation_deg: float = 0.5
+    # z / roll / pitch sigma of predicted SSM and loop factors (left to odometry, like
+    # the real front end's off-plane sigma).
+    off_plane_sigma: float = 1.0
+    # Factor kind of predicted loops on the graph copy (never on the live graph).
+    loop_kind: str = "predicted_loop"
+    # Skip the graph copy for candidates without a predicted loop (exact up to
+    # linearisation); false forces the copy for every candidate (slower; for checks).
+    shortcut_without_loops: bool = True
+
+
+@dataclass
 class PlanningConfig:
     """The ``planning`` config group."""
 
     virtual_map: VirtualMapConfig = field(default_factory=VirtualMapConfig)
     revisits: RevisitConfig = field(default_factory=RevisitConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
+    em: EMConfig = field(default_factory=EMConfig)

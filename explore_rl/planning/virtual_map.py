@@ -317,7 +317,7 @@ class VirtualMap:
         observed = landmark_covariance_from_pose(
             self.landmark_xy[landmark_idx], poses[pose_idx], pose_covs[pose_idx], self.config
         )
-        _fuse_in_order(covs, landmark_idx, observed)
+        fuse_in_order(covs, landmark_idx, observed)
         return covs
 
     def update(self, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray) -> None:
@@ -350,7 +350,7 @@ class VirtualMap:
         return np.trace(covs, axis1=-2, axis2=-1).reshape(self.landmark_grid.shape)
 
 
-def _fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray) -> None:
+def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray) -> None:
     """Fuse ``observed[i]`` into ``covs[landmark_idx[i]]`` in place, in index order.
 
     The j-th observation of every landmark is fused in round j, all landmarks at once.

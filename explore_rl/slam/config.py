@@ -70,25 +70,43 @@ class ScanMatcherConfig:
     # Point-to-plane Gauss-Newton steps after kiss-icp (0 = pure kiss-icp); they
     # remove the pull of partially-overlapping surfaces towards the previous pose.
     refine_iterations: int = 2
+    # If kiss-icp moved this far from the wheel prior, also refine from the prior and
+    # keep the start with more inliers (kiss-icp can lock onto the far face of a wall).
+    recheck_translation: float = 0.05
+    recheck_rotation_deg: float = 2.0
 
-    # Correspondences, refinement and quality check against the local map.
+    # Refinement and quality check run against the last few anchored keyframe clouds
+    # (each point knows the sensor origin that saw it), not kiss-icp's voxel map.
+    submap_keyframes: int = 5
+    submap_voxel: float = 0.15  # each keyframe cloud is thinned to this before joining
+    # After this many keyframes without a usable match the submap is stale (odometry
+    # drift): it restarts at the current keyframe, with no factor.
+    max_span: int = 5
+
+    # Correspondences, refinement and quality check.
     inlier_distance: float = 0.15
     normal_neighbors: int = 8
-    # Inliers used for normals / Hessian / residual (a regular subsample; cost bound).
-    max_quality_points: int = 500
+    # Map points whose neighbourhood is not planar (PCA surface variation above this:
+    # edges, corners, wall-floor junctions) are left out of refinement and Hessian.
+    max_surface_variation: float = 0.02
     min_points: int = 50
     min_inliers: int = 50
     min_inlier_fraction: float = 0.3
-    # Eigenvalue threshold of the point-to-plane Hessian divided by the inlier count.
-    weak_eigenvalue: float = 0.02
-    # More weak directions than this -> degenerate (floor only has 3: x, y, yaw).
+    # A planar direction (in yaw, x, y; yaw in rad, so a point at r metres counts r^2)
+    # is weak when the point-to-plane information J^T W J along it is below this many
+    # perfectly aligned points. Absolute, not per point: floor points, which say
+    # nothing about x, y, yaw, must not dilute it. More weak planar directions than
+    # allowed -> degenerate (a floor-only scan has three).
+    min_information: float = 10.0
     max_weak_directions: int = 2
 
-    # Covariance: standard deviation along weak directions, floors added on the
-    # diagonal, and the isotropic standard deviation of degenerate (unusable) scans.
+    # Covariance: standard deviation along weak planar directions, floors added on the
+    # planar diagonal, z/roll/pitch (left to odometry), and the isotropic standard
+    # deviation of degenerate (unusable) scans.
     weak_sigma: float = 1.0
     min_sigma_translation: float = 0.01
     min_sigma_rotation_deg: float = 0.15
+    off_plane_sigma: float = 1.0
     degenerate_sigma: float = 100.0
 
 

@@ -47,6 +47,11 @@ class FactorRecord:
     covariance: np.ndarray  # 6x6, Pose3 tangent order (rx, ry, rz, tx, ty, tz)
     robust: bool = False
 
+    def __post_init__(self) -> None:
+        # Own copies: the log must not change if the caller reuses its arrays.
+        object.__setattr__(self, "measurement", np.array(self.measurement, dtype=float))
+        object.__setattr__(self, "covariance", np.array(self.covariance, dtype=float))
+
 
 @dataclass
 class _Batch:
@@ -98,7 +103,8 @@ def _robust(base: gtsam.noiseModel.Base, kernel: str, width: float) -> gtsam.noi
     if kernel == "none":
         return base
     if kernel not in estimators:
-        raise ValueError(f"unknown robust kernel {kernel!r}; use one of {sorted(estimators)} or 'none'")
+        choices = ", ".join(sorted(estimators) + ["none"])
+        raise ValueError(f"unknown robust kernel {kernel!r}; use one of {choices}")
     return gtsam.noiseModel.Robust.Create(estimators[kernel].Create(width), base)
 
 
@@ -137,8 +143,10 @@ class PoseGraph:
         ``odom_delta`` is the wheel-odometry motion since the previous keyframe (4x4 or
         ``[x, y, yaw]``), ``motion_steps`` the number of motion steps it spans (odometry
         sigmas scale with its square root; at least 1). ``ssm`` adds a scan-matching
-        factor with the match's own covariance, unless ``ssm.usable`` is false.
-        Noise-free measurements are fine (the EM planner forward-simulates on copies).
+        factor with the match's own covariance, unless ``ssm.usable`` is false; it joins
+        keyframe ``j - ssm.span`` to the new one ``j`` (``span > 1`` after degenerate
+        keyframes, see :class:`ScanMatch`). Noise-free measurements are fine (the EM
+        planner forward-simulates on copies).
         """
         i, j = self._num_poses - 1, self._num_poses
         delta = as_matrix(odom_delta)
@@ -147,7 +155,12 @@ class PoseGraph:
             FactorRecord(ODOMETRY, i, j, delta, odometry_covariance(self.config, motion_steps))
         ]
         if ssm is not None and ssm.usable:
-            factors.append(FactorRecord(SCAN_MATCHING, i, j, ssm.relative, ssm.covariance))
+            ref = j - int(ssm.span)
+            if ref < 0:
+                raise ValueError(f"scan match spans {ssm.span} keyframes; only {j} exist")
+            factors.append(
+                FactorRecord(SCAN_MATCHING, ref, j, as_matrix(ssm.span_relative), ssm.covariance)
+            )
         self._apply(_Batch(factors, {j: guess}))
         return j
 

@@ -81,7 +81,8 @@ def test_marginals_match_dense_information_inverse():
     # One scan-matching factor with a full (correlated) covariance.
     rng = np.random.default_rng(0)
     A = rng.normal(size=(6, 6)) * 0.01
-    ssm = ScanMatch(se2_to_matrix([1.0, 0.02, 0.01]), A @ A.T + 1e-4 * np.eye(6), False, 0, 100, 0.0)
+    cov = A @ A.T + 1e-4 * np.eye(6)
+    ssm = ScanMatch(se2_to_matrix([1.0, 0.02, 0.01]), cov, False, 0, 100, 0.0)
     graph.add_keyframe([1.0, 0.0, 0.0], 3, ssm)
     graph.add_loop_closure(len(truth), 0, true_relative(truth, 0, 1), LOOP_COV, "pose_matching")
     assert graph.factor_counts == {"odometry": 8, "scan_matching": 1, "pose_matching": 1}
@@ -212,3 +213,18 @@ def test_odometry_noise_scales_with_sqrt_of_motion_steps():
     np.testing.assert_allclose(np.sqrt(four[3, 3]), 2 * 0.02)
     np.testing.assert_allclose(np.sqrt(four[2, 2]), 2 * np.sqrt(one[2, 2]))
     np.testing.assert_allclose(four[5, 5], one[5, 5])  # z stays tight, unscaled
+
+
+def test_scan_match_factor_joins_its_anchor_and_unusable_ones_are_skipped():
+    graph = PoseGraph(PoseGraphConfig(), [0.0, 0.0, 0.0])
+    cov = np.diag([1.0, 1.0, 1e-4, 1e-4, 1e-4, 1.0])
+    step = se2_to_matrix([0.5, 0.0, 0.0])
+    degenerate = ScanMatch(step, np.eye(6) * 1e4, True, 3, 0, 0.0)
+    graph.add_keyframe([0.5, 0.0, 0.0], 3, degenerate)
+    assert graph.factor_counts["scan_matching"] == 0
+    spanning = ScanMatch(step, cov, False, 0, 100, 0.0, span=2, span_relative=step @ step)
+    j = graph.add_keyframe([0.5, 0.0, 0.0], 3, spanning)
+    assert graph.edges[-1] == (0, j, "scan_matching")
+    assert graph.factor_counts == {"odometry": 2, "scan_matching": 1}
+    with pytest.raises(ValueError):
+        graph.add_keyframe([0.5, 0.0, 0.0], 3, ScanMatch(step, cov, False, 0, 100, 0.0, span=9))

@@ -1,0 +1,378 @@
+"""The EM planner (Wang et al.; paper Sec. II-B, III-C): the expert the learned policy imitates.
+
+For every candidate frontier the planner forward-simulates SLAM along the candidate's
+path and asks how much the virtual map's utility ``U = sum_l log det Sigma_l`` would drop:
+
+1. predicted keyframes every ``slam.keyframe_distance`` along the path
+   (:func:`~explore_rl.planning.revisits.sample_path`), chained to the last keyframe by
+   odometry and scan-matching factors at their noise-free means with calibrated sigmas;
+2. loop factors wherever :func:`~explore_rl.planning.revisits.predict_revisits` fires;
+3. pose covariances: with a loop, on a copy of the live iSAM2 (``PoseGraph.copy``; the
+   live graph is untouched) holding the predicted keyframes and loops; without one, old
+   marginals are unchanged and the new ones follow from propagating the last keyframe's
+   covariance along the chain (:func:`propagate_chain`) -- no copy needed;
+4. the virtual map rebuilt from all poses gives ``U'``.
+
+The choice is ``argmax U0 - U' - alpha * path_length``. Everything that does not depend
+on the candidate -- old marginals, which landmarks each old pose sees and the Jacobians
+of those observations (:class:`Observations`), ``U0`` -- is computed once per decision
+(:class:`DecisionContext`); a loop candidate then only re-reads marginals and re-fuses.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from explore_rl.geometry import rotation_2d, se2_between, se2_to_matrix
+from explore_rl.grid import GridSpec
+from explore_rl.planning.config import EMConfig, PlanningConfig
+from explore_rl.planning.policies import PolicyConfig
+from explore_rl.planning.reward import normalize_rewards, raw_reward
+from explore_rl.planning.revisits import Revisit, predict_revisits, sample_path
+from explore_rl.planning.virtual_map import (
+    VirtualMap,
+    fuse_in_order,
+    measurement_noise,
+    range_bearing_jacobians,
+)
+from explore_rl.robot import RobotConfig
+from explore_rl.slam.frontend import ScanMatch
+from explore_rl.slam.pose_graph import PoseGraph, key, odometry_covariance
+
+if TYPE_CHECKING:
+    from explore_rl.runner import ExplorationState
+
+# Rows/columns (x, y, yaw) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz).
+PLANAR_TANGENT = [3, 4, 2]
+# Slack when counting motion steps, so float error in a whole number of steps adds none.
+STEP_SLACK = 1e-9
+
+
+# ---------------------------------------------------------------------- noise models
+
+
+def planar_pose3_covariance(sigma_translation: float, sigma_rotation_deg: float,
+                            off_plane_sigma: float) -> np.ndarray:
+    """6x6 diagonal covariance (Pose3 tangent order) from planar and off-plane sigmas."""
+    yaw = np.deg2rad(sigma_rotation_deg)
+    sigmas = [off_plane_sigma, off_plane_sigma, yaw, sigma_translation, sigma_translation, off_plane_sigma]
+    return np.diag(np.square(sigmas))
+
+
+def ssm_covariance(config: EMConfig) -> np.ndarray:
+    return planar_pose3_covariance(config.ssm_sigma_translation, config.ssm_sigma_rotation_deg,
+                                   config.off_plane_sigma)
+
+
+def loop_covariance(config: EMConfig) -> np.ndarray:
+    return planar_pose3_covariance(config.loop_sigma_translation, config.loop_sigma_rotation_deg,
+                                   config.off_plane_sigma)
+
+
+def predicted_ssm(relative_se2: np.ndarray, config: EMConfig) -> ScanMatch:
+    """A noise-free scan-matching measurement of ``relative_se2`` with the predicted sigmas."""
+    return ScanMatch(relative=se2_to_matrix(relative_se2), covariance=ssm_covariance(config),
+                     degenerate=False, weak_directions=0, n_points=0, ms=0.0)
+
+
+def step_covariances(graph: PoseGraph, steps: np.ndarray, config: EMConfig) -> np.ndarray:
+    """``(P, 3, 3)`` body-frame (x, y, yaw) covariance of odometry and SSM fused per step.
+
+    Both factors join the same poses at the same (noise-free) mean, so together they act
+    as one factor with the summed information.
+    """
+    planar = np.ix_(PLANAR_TANGENT, PLANAR_TANGENT)
+    ssm_info = np.linalg.inv(ssm_covariance(config)[planar])
+    odom = np.stack([odometry_covariance(graph.config, int(n))[planar] for n in steps])
+    return np.linalg.inv(np.linalg.inv(odom) + ssm_info)
+
+
+def motion_steps(deltas: np.ndarray, robot: RobotConfig) -> np.ndarray:
+    """Motion steps the robot needs for each relative motion ``(P, 3)``: distance steps
+    plus in-place turn steps, at least one (the odometry sigmas scale with its sqrt)."""
+    distance = np.hypot(deltas[:, 0], deltas[:, 1]) / robot.step_distance
+    turn = np.abs(deltas[:, 2]) / np.deg2rad(robot.step_angle_deg)
+    return np.maximum(np.ceil(distance - STEP_SLACK) + np.ceil(turn - STEP_SLACK), 1).astype(int)
+
+
+def propagate_chain(start_cov: np.ndarray, start_pose: np.ndarray, poses: np.ndarray,
+                    step_covs: np.ndarray) -> np.ndarray:
+    """World-frame (x, y, yaw) covariances ``(P, 3, 3)`` of a chain of poses hanging off
+    ``start_pose`` (covariance ``start_cov``) through relative-motion factors.
+
+    Linearised SE(2) composition with the factor noise in the frame of each step's end
+    pose (as gtsam's BetweenFactor): ``S_k = F S_{k-1} F^T + G Q_k G^T`` with ``F`` the
+    lever of a yaw error at the previous pose and ``G = diag(R_k, 1)``. For a chain this
+    is what the pose graph's marginals would be.
+    """
+    out = np.empty((len(poses), 3, 3))
+    cov, previous = np.asarray(start_cov, float), np.asarray(start_pose, float)
+    for k, pose in enumerate(poses):
+        lever = np.eye(3)
+        lever[0, 2] = -(pose[1] - previous[1])
+        lever[1, 2] = pose[0] - previous[0]
+        rotate = np.eye(3)
+        rotate[:2, :2] = rotation_2d(float(pose[2]))
+        cov = lever @ cov @ lever.T + rotate @ step_covs[k] @ rotate.T
+        out[k], previous = cov, pose
+    return out
+
+
+# ---------------------------------------------------------------------- graph helpers
+
+
+def world_covariances(graph: PoseGraph, poses: np.ndarray) -> np.ndarray:
+    """``(N, 3, 3)`` world-frame (x, y, yaw) marginals of keyframes at planar ``poses``.
+
+    Same transform as ``PoseGraph.world_xy_yaw_covariance`` (world xy = R v, yaw = w_z
+    for a planar pose), read straight from iSAM2 and rotated in one vectorised step
+    (the per-pose wrapper's cache bookkeeping doubles the cost on graph copies).
+    """
+    marginals = np.stack([graph.isam.marginalCovariance(key(i)) for i in range(len(poses))])
+    jac = np.zeros((len(poses), 3, 6))
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    jac[:, 0, 3], jac[:, 0, 4] = c, -s
+    jac[:, 1, 3], jac[:, 1, 4] = s, c
+    jac[:, 2, 2] = 1.0
+    return jac @ marginals @ np.swapaxes(jac, 1, 2)
+
+
+@dataclass
+class PredictedPath:
+    """The keyframes a candidate's path would add, chained to the last live keyframe."""
+
+    poses: np.ndarray  # (P, 3) predicted keyframe poses [x, y, yaw]
+    travel: np.ndarray  # (P,) travel from the robot's current pose to each
+    deltas: np.ndarray  # (P, 3) body-frame motion from the previous keyframe (live or predicted)
+    steps: np.ndarray  # (P,) motion steps per delta
+    revisits: list[Revisit]
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+
+def simulate_graph(graph: PoseGraph, old_poses: np.ndarray, predicted: PredictedPath,
+                   config: EMConfig) -> PoseGraph:
+    """A copy of ``graph`` with the predicted keyframes and loop factors added."""
+    copy = graph.copy()
+    first = copy.num_poses
+    for delta, steps in zip(predicted.deltas, predicted.steps):
+        copy.add_keyframe(se2_to_matrix(delta), int(steps), predicted_ssm(delta, config))
+    for revisit in predicted.revisits:
+        relative = se2_between(old_poses[revisit.keyframe_index], predicted.poses[revisit.path_index])
+        copy.add_loop_closure(revisit.keyframe_index, first + revisit.path_index,
+                              se2_to_matrix(relative), loop_covariance(config), config.loop_kind)
+    return copy
+
+
+# ---------------------------------------------------------------------- virtual-map observations
+
+
+@dataclass
+class Observations:
+    """Virtual-map observations of fixed (pose, landmark) pairs, Jacobians precomputed.
+
+    A landmark seen from a pose with covariance ``S`` gets ``H_l^-1 (R + H_x S H_x^T)
+    H_l^-T = noise + gain S gain^T`` (:func:`landmark_covariance_from_pose`), so only the
+    pose covariances change between candidates.
+    """
+
+    pose_idx: np.ndarray  # (M,) in pose order
+    landmark_idx: np.ndarray  # (M,)
+    gain: np.ndarray  # (M, 2, 3) H_l^-1 H_x
+    noise: np.ndarray  # (M, 2, 2) H_l^-1 R H_l^-T
+
+    @classmethod
+    def of(cls, vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray) -> Observations:
+        pose_idx, landmark_idx = vmap.visible_pairs(poses, blocked)
+        h_x, h_l = range_bearing_jacobians(poses[pose_idx], vmap.landmark_xy[landmark_idx],
+                                           vmap.config.min_range)
+        h_l_inv = np.linalg.inv(h_l)
+        noise = h_l_inv @ measurement_noise(vmap.config) @ np.swapaxes(h_l_inv, 1, 2)
+        return cls(pose_idx, landmark_idx, h_l_inv @ h_x, noise)
+
+    def shifted(self, offset: int) -> Observations:
+        """The same observations with pose indices moved by ``offset``."""
+        return Observations(self.pose_idx + offset, self.landmark_idx, self.gain, self.noise)
+
+    def concatenated(self, other: Observations) -> Observations:
+        return Observations(*(np.concatenate([a, b]) for a, b in zip(
+            (self.pose_idx, self.landmark_idx, self.gain, self.noise),
+            (other.pose_idx, other.landmark_idx, other.gain, other.noise))))
+
+    def landmark_covariances(self, pose_covs: np.ndarray) -> np.ndarray:
+        """``(M, 2, 2)`` observed landmark covariances given every pose's covariance."""
+        gain = self.gain
+        return self.noise + gain @ pose_covs[self.pose_idx] @ np.swapaxes(gain, 1, 2)
+
+    def fuse(self, initial: np.ndarray, pose_covs: np.ndarray) -> np.ndarray:
+        """Landmark covariances after fusing every observation into ``initial`` (a copy),
+        in pose order, by covariance intersection (as ``VirtualMap``)."""
+        covs = np.array(initial, float)
+        if len(self.pose_idx):
+            fuse_in_order(covs, self.landmark_idx, self.landmark_covariances(pose_covs))
+        return covs
+
+
+# ---------------------------------------------------------------------- per-decision state
+
+
+@dataclass
+class DecisionContext:
+    """Everything shared by the candidates of one decision (computed once)."""
+
+    graph: PoseGraph
+    vmap: VirtualMap
+    blocked: np.ndarray  # known-occupied cells (break line of sight)
+    travel: float  # cumulative travel now
+    keyframe_spacing: float  # m between predicted keyframes (the session's keyframe distance)
+    poses: np.ndarray  # (N, 3) keyframe estimates
+    pose_covs: np.ndarray  # (N, 3, 3) their world-frame (x, y, yaw) marginals
+    keyframe_travel: np.ndarray  # (N,)
+    observations: Observations  # what the keyframes see on the virtual map
+    landmark_covs: np.ndarray  # (L, 2, 2) the current virtual map
+    u0: float
+
+    @property
+    def grid(self) -> GridSpec:
+        return self.vmap.grid
+
+
+@dataclass
+class EMEvaluation:
+    """Every evaluated candidate's utility terms (aligned arrays, nearest first)."""
+
+    indices: np.ndarray  # (C,) index of each evaluated candidate in state.candidates
+    u0: float  # utility of the current virtual map
+    u_after: np.ndarray  # (C,) U' after driving each candidate's path
+    lengths: np.ndarray  # (C,) path lengths (m)
+    loops: np.ndarray  # (C,) predicted loop closures
+    raw: np.ndarray  # (C,) U0 - U' - alpha * length
+    nearest: int  # position of state.nearest in ``indices`` (-1 if not evaluated)
+    ms: float  # wall time of the evaluation
+
+    @property
+    def best(self) -> int:
+        """Position (in ``indices``) of the best raw reward; ties go to the nearer."""
+        return int(np.argmax(self.raw))
+
+    @property
+    def chosen(self) -> int:
+        """Index into ``state.candidates`` of EM's choice."""
+        return int(self.indices[self.best])
+
+    def rewards(self, planning: PlanningConfig) -> np.ndarray:
+        """Paper Algorithm 1 rewards ``(C,)`` of the evaluated candidates."""
+        if self.nearest < 0:
+            raise ValueError("the nearest frontier was not evaluated; Algorithm 1 needs it")
+        return normalize_rewards(self.raw, self.nearest, planning.reward)
+
+
+# ---------------------------------------------------------------------- the planner
+
+
+class EMPlanner:
+    """Expected-map planner: argmax over candidates of ``U0 - U' - alpha * length``."""
+
+    name = "em"
+
+    def __init__(self, config: PolicyConfig, planning: PlanningConfig, em: EMConfig | None = None,
+                 robot: RobotConfig | None = None) -> None:
+        """``em`` defaults to ``planning.em`` when the config has one, else :class:`EMConfig`;
+        ``robot`` (motion-step size, for the odometry sigmas) to ``RobotConfig()``."""
+        self.config = config
+        self.planning = planning
+        self.em = em or getattr(planning, "em", None) or EMConfig()
+        self.robot = robot or RobotConfig()
+        self._vmap: VirtualMap | None = None
+        self.last_evaluation: EMEvaluation | None = None
+
+    def choose(self, state: ExplorationState) -> int:
+        self.last_evaluation = self.evaluate(state)
+        return self.last_evaluation.chosen
+
+    def evaluate(self, state: ExplorationState) -> EMEvaluation:
+        """Utility terms of the (at most ``max_candidates``) nearest candidates."""
+        start = time.perf_counter()
+        indices = self.candidate_indices(state)
+        context = self.decision_context(state)
+        u_after, loops = np.empty(len(indices)), np.zeros(len(indices), dtype=int)
+        for k, index in enumerate(indices):
+            predicted = self.predict_path(context, state.candidates[index].path)
+            u_after[k] = self.utility_after(context, predicted)
+            loops[k] = len(predicted.revisits)
+        lengths = np.array([state.candidates[i].length for i in indices], dtype=float)
+        raw = raw_reward(context.u0, u_after, lengths, self.planning.reward.alpha)
+        nearest = np.flatnonzero(indices == state.nearest)
+        return EMEvaluation(indices, context.u0, u_after, lengths, loops, raw,
+                            int(nearest[0]) if len(nearest) else -1,
+                            1e3 * (time.perf_counter() - start))
+
+    def candidate_indices(self, state: ExplorationState) -> np.ndarray:
+        """Up to ``max_candidates`` candidate indices, shortest path first."""
+        lengths = np.array([c.length for c in state.candidates], dtype=float)
+        return np.argsort(lengths, kind="stable")[: max(self.config.max_candidates, 1)]
+
+    def virtual_map(self, grid: GridSpec) -> VirtualMap:
+        """The virtual map geometry on ``grid`` (built once; its state is never used)."""
+        if self._vmap is None or self._vmap.grid != grid:
+            self._vmap = VirtualMap(grid, self.planning.virtual_map)
+        return self._vmap
+
+    def decision_context(self, state: ExplorationState) -> DecisionContext:
+        """Old marginals, their observations and the current virtual map (U0)."""
+        session = state.session
+        graph = session.graph
+        vmap = self.virtual_map(session.occupancy.grid)
+        blocked = session.occupancy.known_occupied
+        poses = graph.poses_se2()
+        pose_covs = world_covariances(graph, poses)
+        observations = Observations.of(vmap, poses, blocked)
+        landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
+        keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
+        return DecisionContext(graph, vmap, blocked, float(state.travel),
+                               float(session.config.keyframe_distance), poses, pose_covs,
+                               keyframe_travel, observations, landmark_covs,
+                               vmap.utility(landmark_covs))
+
+    # ------------------------------------------------------------ one candidate
+
+    def predict_path(self, context: DecisionContext, path_xy: np.ndarray) -> PredictedPath:
+        """Predicted keyframes along ``path_xy`` and the loops they would close."""
+        poses, travel = sample_path(path_xy, context.keyframe_spacing)
+        anchors = np.vstack([context.poses[-1:], poses[:-1]])
+        deltas = se2_between(anchors, poses)
+        revisits = predict_revisits(poses[:, :2], context.poses[:, :2], context.keyframe_travel,
+                                    context.travel, context.blocked, context.grid,
+                                    self.planning.revisits, path_travel=travel)
+        return PredictedPath(poses, travel, deltas, motion_steps(deltas, self.robot), revisits)
+
+    def utility_after(self, context: DecisionContext, predicted: PredictedPath) -> float:
+        """``U'``: the virtual map after the predicted keyframes (and loops) join the graph."""
+        if len(predicted) == 0:
+            return context.u0
+        if predicted.revisits or not self.em.shortcut_without_loops:
+            covs = self.map_with_graph_copy(context, predicted)
+        else:
+            covs = self.map_with_chain(context, predicted)
+        return context.vmap.utility(covs)
+
+    def map_with_chain(self, context: DecisionContext, predicted: PredictedPath) -> np.ndarray:
+        """No loop: old marginals (and their map) stand; fuse the propagated new poses."""
+        covs = propagate_chain(context.pose_covs[-1], context.poses[-1], predicted.poses,
+                               step_covariances(context.graph, predicted.steps, self.em))
+        new = Observations.of(context.vmap, predicted.poses, context.blocked)
+        return new.fuse(context.landmark_covs, covs)
+
+    def map_with_graph_copy(self, context: DecisionContext, predicted: PredictedPath) -> np.ndarray:
+        """Loops: simulate on a copy of the live iSAM2; rebuild the map from all poses."""
+        graph = simulate_graph(context.graph, context.poses, predicted, self.em)
+        all_poses = np.vstack([context.poses, predicted.poses])
+        all_covs = world_covariances(graph, all_poses)
+        new = Observations.of(context.vmap, predicted.poses, context.blocked)
+        observations = context.observations.concatenated(new.shifted(len(context.poses)))
+        return observations.fuse(context.vmap.prior_covariances(), all_covs)
