@@ -47,6 +47,8 @@ class FrontierConfig:
 
     neighbourhood: int = 4  # a free cell touching unknown through 4 or 8 neighbours is a frontier
     min_cluster_cells: int = 5  # smaller clusters are dropped
+    # clusters longer than this (m) are cut into tiles of this size, one waypoint each
+    max_cluster_extent: float = 2.0
     # If no cell of a cluster is traversable, look for a waypoint this far (m) around it;
     # a cluster with none is dropped (it cannot be reached).
     waypoint_search_radius: float = 0.5

@@ -47,7 +47,7 @@ def find_frontiers(
     config = config or FrontierConfig()
     mask = frontier_mask(occupancy_free, unknown, config.neighbourhood)
     frontiers = []
-    for cells in _clusters(mask):
+    for cells in _split_long_clusters(_clusters(mask), grid, config.max_cluster_extent):
         if len(cells) < config.min_cluster_cells:
             continue
         waypoint = _waypoint(cells, traversable, grid, config)
@@ -66,6 +66,23 @@ def _clusters(mask: np.ndarray) -> list[np.ndarray]:
     order = np.argsort(ids, kind="stable")  # keeps row-major order inside each cluster
     bounds = np.searchsorted(ids[order], np.arange(1, count + 2))
     return [cells[order[bounds[i] : bounds[i + 1]]] for i in range(count)]
+
+
+def _split_long_clusters(
+    clusters: list[np.ndarray], grid: GridSpec, max_extent: float
+) -> list[np.ndarray]:
+    """Cut clusters into tiles of ``max_extent`` metres, so a long frontier (the rim of
+    open space) offers several waypoints instead of one near its centroid."""
+    tile = max(1, int(round(max_extent / grid.resolution)))
+    pieces = []
+    for cells in clusters:
+        if np.ptp(cells, axis=0).max() < tile:
+            pieces.append(cells)
+            continue
+        tiles = cells // tile
+        _, ids = np.unique(tiles, axis=0, return_inverse=True)
+        pieces += [cells[ids.reshape(-1) == i] for i in range(ids.max() + 1)]
+    return pieces
 
 
 def _closest_to(candidates: np.ndarray, point: np.ndarray) -> np.ndarray:
