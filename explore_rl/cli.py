@@ -64,26 +64,14 @@ def view(cfg: DictConfig) -> None:
 def tour(cfg: DictConfig) -> None:
     """Drive the scripted office tour with SLAM; draw true, odometry and SLAM trajectories."""
     from explore_rl import viz
-    from explore_rl.robot import Robot
-    from explore_rl.scene.build import make_scene
-    from explore_rl.sensors.lidar import Lidar
-    from explore_rl.slam.session import SlamSession
-    from explore_rl.tour import drive_with_slam, plan_tour
+    from explore_rl.tour import run_tour
 
     try:
         config = to_config(cfg)
-        config.scene.start_index = config.tour.start_index
-        scene = make_scene(config.scene, config.robot, config.lidar)
-        start = scene.start_pose
-        waypoints = plan_tour(scene, start[:2], config.tour.goals, config.robot.radius,
-                              config.mapping.paths)
+        run = run_tour(config)
     except ValueError as error:
         fail(str(error))
-    rng = np.random.default_rng(config.seed)
-    lidar = Lidar(scene, config.lidar, rng)
-    robot = Robot(config.robot, start, scene.is_free, rng)
-    session = SlamSession(config.slam, config.mapping, scene, lidar, start, rng)
-    status = drive_with_slam(robot, session, waypoints)
+    scene, robot, session, status = run.scene, run.robot, run.session, run.status
     slam, odom = session.metrics(), session.metrics(session.odometry_poses())
     log.info("tour %s after %.1f m: %d keyframes", status.value, robot.travelled, slam.keyframes)
     log.info("ATE %.3f m (odometry %.3f m), map error %.3f m (odometry %.3f m)",

@@ -6,7 +6,7 @@ that visits the rooms and comes back near its start, before any exploration poli
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -21,6 +21,8 @@ from explore_rl.slam.session import SlamSession
 class TourConfig:
     start_index: int = 1
     goals: list[list[float]] = field(default_factory=list)
+    # extra clearance (m) of tour paths from obstacles: the robot steers by its estimate
+    inflation_margin: float = 0.1
 
 
 def plan_tour(scene: Scene, start_xy: np.ndarray, goals: list[list[float]], robot_radius: float,
@@ -38,6 +40,33 @@ def plan_tour(scene: Scene, start_xy: np.ndarray, goals: list[list[float]], robo
         legs.append(simplify_path(path)[1:])
         here = path[-1]
     return np.vstack(legs)
+
+
+@dataclass
+class TourRun:
+    scene: Scene
+    robot: Robot
+    session: SlamSession
+    status: PathStatus
+
+
+def run_tour(config, goals_limit: int | None = None) -> TourRun:
+    """Build the scene of ``config`` and drive its tour with SLAM (seeded by ``config.seed``)."""
+    from explore_rl.scene.build import make_scene
+    from explore_rl.sensors.lidar import Lidar
+
+    config.scene.start_index = config.tour.start_index
+    scene = make_scene(config.scene, config.robot, config.lidar)
+    start = scene.start_pose
+    goals = config.tour.goals[:goals_limit] if goals_limit else config.tour.goals
+    paths = replace(config.mapping.paths, inflation_margin=config.tour.inflation_margin)
+    waypoints = plan_tour(scene, start[:2], goals, config.robot.radius, paths)
+    lidar = Lidar(scene, config.lidar, np.random.default_rng([config.seed, 1]))
+    robot = Robot(config.robot, start, scene.is_free, np.random.default_rng([config.seed, 2]))
+    session = SlamSession(config.slam, config.mapping, scene, lidar, start,
+                          np.random.default_rng([config.seed, 3]))
+    status = drive_with_slam(robot, session, waypoints)
+    return TourRun(scene, robot, session, status)
 
 
 def drive_with_slam(robot: Robot, session: SlamSession, waypoints: np.ndarray) -> PathStatus:

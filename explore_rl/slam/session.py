@@ -18,12 +18,12 @@ import time
 from collections import defaultdict
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Iterator
+from typing import Iterator, Protocol
 
 import numpy as np
 from kiss_icp.voxelization import voxel_down_sample
 
-from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix, transform_points, wrap_angle
+from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix, transform_points
 from explore_rl.mapping.config import MappingConfig
 from explore_rl.mapping.occupancy import OccupancyGrid, Scan2D, collapse_scan, explored_fraction
 from explore_rl.mapping.voxels import VoxelMap
@@ -73,11 +73,47 @@ class StageTimer:
         self.seconds[stage] += time.perf_counter() - start
 
 
-def make_frontend(config: SlamConfig) -> ScanMatcher:
+class SequentialFrontend(Protocol):
+    """Produces the sequential scan-matching measurement of each new keyframe."""
+
+    def register(self, points_sensor: np.ndarray, wheel_delta: np.ndarray,
+                 true_delta: np.ndarray) -> ScanMatch: ...
+
+
+class LoopCloser(Protocol):
+    """Looks for loop closures for the newest keyframe; adds accepted ones to the graph."""
+
+    def process(self, session: "SlamSession") -> int: ...
+
+
+class IcpFrontend:
+    """kiss-icp scan matching on the simulated cloud (the true motion is not used)."""
+
+    def __init__(self, config: SlamConfig):
+        self.matcher = ScanMatcher(config.scan_matcher)
+
+    def register(self, points_sensor: np.ndarray, wheel_delta: np.ndarray,
+                 true_delta: np.ndarray) -> ScanMatch:
+        return self.matcher.register(points_sensor, wheel_delta)
+
+
+class NoLoopClosures:
+    """Sequential factors only (``slam.loop_closure.enabled=false``)."""
+
+    def process(self, session: "SlamSession") -> int:
+        return 0
+
+
+def make_frontend(config: SlamConfig) -> SequentialFrontend:
     """The sequential front end named by ``config.frontend``."""
     if config.frontend == "icp":
-        return ScanMatcher(config.scan_matcher)
+        return IcpFrontend(config)
     raise ValueError(f"unknown slam.frontend={config.frontend!r}; choose icp")
+
+
+def make_loop_closer(config: SlamConfig) -> LoopCloser:
+    """The loop-closure front end matching ``config.frontend``."""
+    return NoLoopClosures()
 
 
 def map_error(world_from_sensor_est: np.ndarray, world_from_sensor_true: np.ndarray,
@@ -108,6 +144,7 @@ class SlamSession:
         self.rng = rng
         self.graph = PoseGraph(config.pose_graph, start_pose)
         self.frontend = make_frontend(config)
+        self.loop_closer = make_loop_closer(config)
         self.occupancy = OccupancyGrid(scene.grid, mapping.occupancy)
         self.voxels = VoxelMap(mapping.voxels)
         self.keyframes: list[Keyframe] = []
@@ -143,8 +180,10 @@ class SlamSession:
         first = not self.keyframes
         wheel_delta = np.eye(4) if first else se2_to_matrix(
             se2_between(self.keyframes[-1].odom_pose, odom_pose))
+        true_delta = np.eye(4) if first else se2_to_matrix(
+            se2_between(self.keyframes[-1].true_pose, true_pose))
         with self.timer("registration"):
-            match = self.frontend.register(scan.points, wheel_delta)
+            match = self.frontend.register(scan.points, wheel_delta, true_delta)
         if not first:
             with self.timer("isam2"):
                 self.graph.add_keyframe(wheel_delta, max(self._steps_since_keyframe, 1), match)
@@ -154,6 +193,8 @@ class SlamSession:
                                        np.asarray(odom_pose, float).copy(), travel, cloud, scan2d,
                                        scan.points[sample], None if first else match))
         self._steps_since_keyframe = 0
+        with self.timer("loops"):
+            self.loop_closer.process(self)
         with self.timer("maps"):
             self.update_maps()
 
