@@ -64,3 +64,19 @@ def test_view_rejects_a_bad_scene_file_in_one_line(tmp_path):
     assert result.returncode == 2
     assert "bad.yaml" in result.stderr and "walls[0].thickness" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_explore_writes_csv_figure_and_animation(tmp_path):
+    scene = tmp_path / "closet.yaml"
+    scene.write_text("version: 1\nname: closet\nsize: [6.0, 3.0]\n"
+                     "walls:\n  - {from: [3.0, 0.0], to: [3.0, 1.8]}\nstarts:\n  - [1.0, 1.0, 0.0]\n")
+    explore = [sys.executable, "-c", "from explore_rl.cli import explore; explore()"]
+    result = subprocess.run(explore + ["scene=file", f"scene.path={scene}", f"out={tmp_path}",
+                                       "explore.animation=true", "explore.max_decisions=3"],
+                            capture_output=True, text=True, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    stem = "closet_nearest_seed0"
+    rows = (tmp_path / f"{stem}.csv").read_text().splitlines()
+    assert rows[0].startswith("decision,travel_m,explored") and len(rows) >= 2
+    assert (tmp_path / f"{stem}.png").stat().st_size > 10_000
+    assert (tmp_path / f"{stem}.gif").stat().st_size > 10_000

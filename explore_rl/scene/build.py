@@ -16,7 +16,7 @@ import numpy as np
 
 from explore_rl.grid import GridSpec
 from explore_rl.scene.config import SceneConfig
-from explore_rl.scene.layout import Geometry2D, Layout
+from explore_rl.scene.layout import Box, Geometry2D, Layout
 from explore_rl.scene.procedural import GENERATORS
 from explore_rl.scene.scene_file import load_scene_file
 from explore_rl.scene.truth import GroundTruth, free_space, layout_grid
@@ -46,7 +46,26 @@ def make_layout(config: SceneConfig, robot_radius: float) -> Layout:
     return GENERATORS[config.name](config)
 
 
-def build_spec(layout: Layout, robot: RobotBodyConfig) -> mujoco.MjSpec:
+def split_box(box: Box, max_length: float) -> list[Box]:
+    """Cut a box along its long side into equal pieces no longer than ``max_length``.
+
+    ``mj_multiRay`` culls geoms per ray by their angular extent and by distance; a 20 m
+    wall passes both tests for half the rays of every scan, six-metre pieces do not.
+    """
+    long_axis = 0 if box.size[0] >= box.size[1] else 1
+    pieces = max(1, int(np.ceil(box.size[long_axis] / max_length)))
+    if pieces == 1:
+        return [box]
+    size = list(box.size)
+    size[long_axis] /= pieces
+    direction = np.array([np.cos(box.yaw), np.sin(box.yaw)])
+    if long_axis == 1:
+        direction = np.array([-direction[1], direction[0]])
+    offsets = (np.arange(pieces) + 0.5) * size[long_axis] - box.size[long_axis] / 2
+    return [Box(tuple(np.asarray(box.center) + o * direction), tuple(size), box.yaw) for o in offsets]
+
+
+def build_spec(layout: Layout, robot: RobotBodyConfig, max_geom_length: float = np.inf) -> mujoco.MjSpec:
     """A MuJoCo spec of the layout: floor, walls and objects as static geoms, a mocap robot."""
     spec = mujoco.MjSpec()
     spec.modelname = layout.name
@@ -58,7 +77,8 @@ def build_spec(layout: Layout, robot: RobotBodyConfig) -> mujoco.MjSpec:
         size=[sx / 2 + margin, sy / 2 + margin, 0.1], pos=[sx / 2, sy / 2, 0.0],
         group=SCENE_GEOM_GROUP, rgba=[0.85, 0.85, 0.8, 1],
     )
-    for i, box in enumerate(layout.wall_boxes()):
+    walls = [piece for box in layout.wall_boxes() for piece in split_box(box, max_geom_length)]
+    for i, box in enumerate(walls):
         add_box_geom(world, f"wall{i}", box, rgba=[0.6, 0.6, 0.65, 1])
     for i, box in enumerate(layout.boxes):
         add_box_geom(world, f"box{i}", box, rgba=[0.8, 0.5, 0.3, 1])
@@ -108,7 +128,7 @@ class Scene:
 
     def _build(self) -> None:
         self.layout = make_layout(self.config, self.robot_body.radius)
-        self.model = build_spec(self.layout, self.robot_body).compile()
+        self.model = build_spec(self.layout, self.robot_body, self.config.max_geom_length).compile()
         self.data = mujoco.MjData(self.model)
         self.robot_body_id = self.model.body("robot").id
         self.geometry: Geometry2D = self.layout.geometry()

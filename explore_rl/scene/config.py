@@ -35,5 +35,7 @@ class SceneConfig:
     car_size: list[float] = field(default_factory=lambda: [1.9, 4.5, 1.5])
     car_rows_y: list[float] = field(default_factory=lambda: [4.0, 11.25, 22.5])
     car_jitter: float = 0.15
+    # walls longer than this are built as several geoms (faster ray casting, see build.py)
+    max_geom_length: float = 6.0
     # resolution of the ground-truth grid (and of every 2D map built on it)
     grid_resolution: float = 0.1

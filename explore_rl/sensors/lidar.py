@@ -84,7 +84,7 @@ class Lidar:
         mujoco.mj_multiRay(
             self.scene.model, self.scene.data, self.sensor_position(pose), self._world_dirs,
             self._geomgroup, 1, self.scene.robot_body_id, self._geomid, self._dist, None,
-            len(self.directions), self.config.max_range + 1.0,
+            len(self.directions), self.config.max_range,
         )
         ranges = self._dist.copy()
         ranges[(ranges > self.config.max_range) | (ranges < self.config.min_range)] = -1.0

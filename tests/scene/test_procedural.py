@@ -93,3 +93,19 @@ def test_file_scene_builds(tmp_path):
     example = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "lab.yaml"
     scene = make_scene(scene_config("office", **{"name": "file", "path": str(example)}), RobotConfig(), LidarConfig())
     assert scene.layout.name and scene.truth.reachable.sum() > 0
+
+
+def test_split_box_covers_the_same_footprint():
+    from explore_rl.scene.build import split_box
+    from explore_rl.scene.layout import Box, Geometry2D
+
+    wall = Box((5.0, 2.0), (0.2, 13.0, 2.5), yaw=0.4)
+    pieces = split_box(wall, 6.0)
+    assert len(pieces) == 3 and all(max(p.size[:2]) <= 6.0 for p in pieces)
+    points = np.random.default_rng(0).uniform(-5, 15, size=(4000, 2))
+    whole = Geometry2D(rect_centers=np.array([wall.center]), rect_half=np.array([wall.size[:2]]) / 2,
+                       rect_yaw=np.array([wall.yaw]), rect_height=np.array([2.5]))
+    split = Geometry2D(rect_centers=np.array([p.center for p in pieces]),
+                       rect_half=np.array([p.size[:2] for p in pieces]) / 2,
+                       rect_yaw=np.array([p.yaw for p in pieces]), rect_height=np.full(3, 2.5))
+    assert np.array_equal(whole.signed_distance(points) <= 0, split.signed_distance(points) <= 1e-12)
