@@ -69,7 +69,6 @@ def test_random_policy_is_seeded():
     assert runs[0] == runs[1]
 
 
-@pytest.mark.slow
 def test_nearest_frontier_explores_the_street_within_budget():
     config = load_config("scene=street", "explore.progress_bar=false", "explore.travel_budget=250")
     result = Explorer(config).run()
