@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import sys
 from pathlib import Path
+from typing import Callable, TypeVar
 
 import hydra
 import numpy as np
@@ -16,6 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from explore_rl.config import Config, register_configs, validate
 
+T = TypeVar("T")
 CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("explore_rl")
 
@@ -35,6 +37,16 @@ def fail(message: str) -> None:
     sys.exit(2)
 
 
+def build_or_fail(cfg: DictConfig, build: Callable[[Config], T]) -> tuple[Config, T]:
+    """Validate the config and build the job's object; a bad input exits with one clear line."""
+    try:
+        config = to_config(cfg)
+        return config, build(config)
+    except ValueError as error:
+        fail(str(error))
+        raise  # unreachable: fail() exits
+
+
 @hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
 def view(cfg: DictConfig) -> None:
     """Render a scene top-down: obstacles, true free space, the robot and one LiDAR scan."""
@@ -42,11 +54,7 @@ def view(cfg: DictConfig) -> None:
     from explore_rl.scene.build import make_scene
     from explore_rl.sensors.lidar import Lidar
 
-    try:
-        config = to_config(cfg)
-        scene = make_scene(config.scene, config.robot, config.lidar)
-    except ValueError as error:
-        fail(str(error))
+    config, scene = build_or_fail(cfg, lambda c: make_scene(c.scene, c.robot, c.lidar))
     lidar = Lidar(scene, config.lidar, np.random.default_rng(config.seed))
     pose = scene.start_pose
     scan = lidar.scan(pose)
@@ -66,11 +74,7 @@ def tour(cfg: DictConfig) -> None:
     from explore_rl import viz
     from explore_rl.tour import run_tour
 
-    try:
-        config = to_config(cfg)
-        run = run_tour(config)
-    except ValueError as error:
-        fail(str(error))
+    config, run = build_or_fail(cfg, run_tour)
     scene, robot, session, status = run.scene, run.robot, run.session, run.status
     slam, odom = session.metrics(), session.metrics(session.odometry_poses())
     log.info("tour %s after %.1f m: %d keyframes", status.value, robot.travelled, slam.keyframes)
@@ -119,11 +123,7 @@ def explore(cfg: DictConfig) -> None:
     from explore_rl import viz
     from explore_rl.runner import Explorer
 
-    try:
-        config = to_config(cfg)
-        explorer = Explorer(config)
-    except ValueError as error:
-        fail(str(error))
+    config, explorer = build_or_fail(cfg, Explorer)
     name = f"{explorer.scene.layout.name}_{config.policy.name}_seed{config.seed}"
     out_dir = Path(config.out or config.explore.out_dir)
     frames = []
