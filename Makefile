@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/explore-rl-explore scene=street policy=nearest seed=0 out=out/demo
+	$(VENV)/bin/explore-rl-compare scene=street "compare.policies=[nearest,em]" seed=0 out=out/demo explore.progress_bar=false
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2

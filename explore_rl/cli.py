@@ -154,3 +154,49 @@ def explore(cfg: DictConfig) -> None:
         gif = out_dir / f"{name}.gif"
         imageio.mimsave(gif, frames, duration=0.4)
         print(f"wrote {gif}")
+
+
+def comparison_figure(runs: dict[str, list[dict]], scene_name: str):
+    """Map error and 3D volume against travel distance, one line per policy (paper Fig. 6)."""
+    from explore_rl import viz
+
+    fig, axes = viz.plt.subplots(1, 2, figsize=(11, 4))
+    for policy, rows in runs.items():
+        travel = [r["travel_m"] for r in rows]
+        axes[0].plot(travel, [r["map_error_m"] for r in rows], label=policy)
+        axes[1].plot(travel, [r["volume_m3"] for r in rows], label=policy)
+    axes[0].set(xlabel="travel distance [m]", ylabel="map error [m]", title=f"{scene_name}: map error")
+    axes[1].set(xlabel="travel distance [m]", ylabel="3D occupied volume [m$^3$]", title=f"{scene_name}: volume")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend()
+    return fig
+
+
+@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+def compare(cfg: DictConfig) -> None:
+    """Explore one scene with several policies (``compare.policies``) and compare them."""
+    from dataclasses import replace
+
+    from explore_rl import viz
+    from explore_rl.runner import Explorer
+
+    config, _ = build_or_fail(cfg, lambda c: None)
+    out_dir = Path(config.out or config.explore.out_dir)
+    runs, lines = {}, []
+    for name in config.compare.policies:
+        policy_config = replace(config, policy=replace(config.policy, name=name))
+        _, explorer = build_or_fail(OmegaConf.structured(policy_config), Explorer)
+        result = explorer.run()
+        runs[name] = result.table()
+        stem = f"{explorer.scene.layout.name}_{name}_seed{config.seed}"
+        write_csv(out_dir / f"{stem}.csv", runs[name])
+        viz.save(exploration_figure(explorer, f"{stem}: {result.status.value}"), out_dir / f"{stem}.png")
+        last = result.records[-1]
+        lines.append(f"{name:8s} {result.status.value:22s} travel {explorer.robot.travelled:6.1f} m  "
+                     f"explored {100 * last.explored:5.1f} %  map error {last.map_error_m:.3f} m  "
+                     f"volume {last.volume_m3:6.1f} m3  loop closures {last.loop_closures}")
+    scene_name = config.scene.name
+    figure = viz.save(comparison_figure(runs, scene_name), out_dir / f"{scene_name}_comparison.png")
+    print("\n".join(lines))
+    print(f"wrote {figure} and per-policy figures/CSVs in {out_dir}")

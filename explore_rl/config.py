@@ -24,6 +24,13 @@ from explore_rl.tour import TourConfig
 
 
 @dataclass
+class CompareConfig:
+    """``explore-rl-compare``: the policies explored one after the other on the same scene."""
+
+    policies: list[str] = field(default_factory=lambda: ["nearest", "em"])
+
+
+@dataclass
 class Config:
     seed: int = 0
     out: Optional[str] = None
@@ -36,6 +43,7 @@ class Config:
     tour: TourConfig = field(default_factory=TourConfig)
     explore: ExploreConfig = field(default_factory=ExploreConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
+    compare: CompareConfig = field(default_factory=CompareConfig)
 
 
 def register_configs() -> None:
