@@ -33,6 +33,11 @@ class PoseGraphConfig:
     # Huber's bounded but non-vanishing influence still lets it pull 5-15 cm.
     loop_robust_kernel: str = "cauchy"
     loop_robust_width: float = 3.0
+    # Sequential scan-matching factors: same choices. Their errors have a heavy tail
+    # (kiss-icp occasionally rotates a scan by 1-5 deg on a short wall or one object
+    # while reporting a tight yaw); see conf/calibration/scan_matching.yaml.
+    ssm_robust_kernel: str = "none"
+    ssm_robust_width: float = 3.0
     # Extra iSAM2 update() calls after each loop closure (lets iSAM2 relinearise).
     loop_extra_updates: int = 2
 
@@ -104,10 +109,146 @@ class ScanMatcherConfig:
     # planar diagonal, z/roll/pitch (left to odometry), and the isotropic standard
     # deviation of degenerate (unusable) scans.
     weak_sigma: float = 1.0
+    # Multiplies the residual-variance x inverse-information part (the Gauss-Newton
+    # covariance under-states the measured errors: neighbouring points are correlated).
+    covariance_scale: float = 1.0
     min_sigma_translation: float = 0.01
     min_sigma_rotation_deg: float = 0.15
     off_plane_sigma: float = 1.0
     degenerate_sigma: float = 100.0
+
+
+@dataclass
+class LoopClosureConfig:
+    """Loop closures of the icp front end (``explore_rl/slam/loop_closure.py``): pose
+    matching and segment matching, gated on the joint marginal, verified by
+    registration, added as robust factors (kernel: ``pose_graph.loop_robust_*``).
+
+    Defaults were chosen from logged attempts on the office tour (8 seeds, every
+    registration scored against ground truth; ``scripts/calibrate_loop_closures.py``).
+    """
+
+    enabled: bool = True
+    # Never add factors (attempts are still logged): for calibration.
+    dry_run: bool = False
+
+    # Candidates: earlier keyframes whose estimate is within search_radius of the current
+    # one, more than min_travel_gap metres of travel and min_index_gap keyframes back,
+    # in line of sight on the 2D map; the closest of each run of candidate_separation
+    # indices; at most max_candidates per keyframe.
+    search_radius: float = 2.0
+    min_travel_gap: float = 3.0
+    min_index_gap: int = 10
+    candidate_separation: int = 5
+    max_candidates: int = 3
+    line_of_sight: bool = True
+    # Registrations (pose + segment matching) and accepted closures per keyframe.
+    max_attempts_per_keyframe: int = 2
+    max_closures_per_keyframe: int = 1
+
+    # Gate on the pair's joint marginal: register only if the true distance could be
+    # within overlap_radius (one-sided chi-square at gate_probability), the relative
+    # pose is certain enough for the starts to reach it (max_sigma_*: pose matching
+    # only) and uncertain enough for a closure to be worth it (either std above
+    # min_sigma_*).
+    gate_probability: float = 0.99
+    overlap_radius: float = 1.5
+    max_sigma_translation: float = 0.5
+    max_sigma_rotation_deg: float = 10.0
+    min_sigma_translation: float = 0.04
+    min_sigma_rotation_deg: float = 0.6
+
+    # Registration: the current cloud's points above ground_height (walls, objects;
+    # base frame) thinned to source_voxel against the candidate and submap_keyframes
+    # neighbours each side thinned to submap_voxel, in the candidate's frame. kiss-icp
+    # (icp_threshold sigma: correspondences within 3 sigma, kernel sigma/3;
+    # icp_iterations; icp_source_voxel / icp_voxel maps) from the estimate and, if the
+    # relative std exceeds guess_offset_min_sigma (m) or _rotation_deg, from the
+    # estimate composed with each guess_offsets [dx, dy, dyaw_deg]; distinct results
+    # (duplicate_*) are scored by inliers, the best gets refine_iterations of the scan
+    # matcher's point-to-plane steps.
+    ground_height: float = 0.1
+    source_voxel: float = 0.1
+    submap_keyframes: int = 3
+    submap_voxel: float = 0.1
+    icp_threshold: float = 0.2
+    icp_iterations: int = 10
+    icp_source_voxel: float = 0.25
+    icp_voxel: float = 0.3
+    icp_points_per_voxel: int = 3
+    guess_offsets: list[list[float]] = field(default_factory=lambda: [
+        [0.3, 0.0, 0.0], [-0.3, 0.0, 0.0], [0.0, 0.3, 0.0], [0.0, -0.3, 0.0],
+        [0.0, 0.0, 3.0], [0.0, 0.0, -3.0]])
+    guess_offset_min_sigma: float = 0.1
+    guess_offset_min_sigma_rotation_deg: float = 2.0
+    duplicate_translation: float = 0.02
+    duplicate_rotation_deg: float = 0.3
+    refine_iterations: int = 2
+    inlier_distance: float = 0.15
+
+    # Acceptance. Too few source points (min_structure_points) -> not attempted.
+    # inlier fraction, point-to-plane residual (m); planar directions whose information
+    # (J^T W J eigenvalue, in aligned points) is below min_information are weak: at most
+    # max_weak_directions, along which the prior's std moves the position by at most
+    # max_weak_prior_sigma and the yaw by max_weak_prior_sigma_rotation_deg (the factor
+    # keeps the prior there, std weak_sigma); a clearly different start (ambiguity_*)
+    # with at least ambiguity_ratio of the best's inliers -> ambiguous; the correction
+    # must pass a chi-square (3 dof, consistency_probability) under joint marginal +
+    # factor covariance. On the office tour: min_information 10 and ambiguity 0.9 kept
+    # 171 of 448 otherwise-passing registrations, none wrong by > 0.3 m / 3 deg.
+    min_structure_points: int = 100
+    min_inliers: int = 50
+    min_inlier_fraction: float = 0.6
+    max_residual: float = 0.03
+    min_information: float = 10.0
+    max_weak_directions: int = 1
+    max_weak_prior_sigma: float = 0.1
+    max_weak_prior_sigma_rotation_deg: float = 1.0
+    weak_sigma: float = 1.0
+    ambiguity_ratio: float = 0.9
+    ambiguity_translation: float = 0.1
+    ambiguity_rotation_deg: float = 2.0
+    consistency_probability: float = 0.999
+
+    # Loop factor covariance: residual variance x inverse planar information plus these
+    # floors (the submap's own placement errors dominate); z/roll/pitch left to odometry.
+    sigma_translation: float = 0.03
+    sigma_rotation_deg: float = 0.5
+    off_plane_sigma: float = 1.0
+
+    # Segment matching (explore_rl/slam/segments.py): every segment_every keyframes the
+    # last segment_submap_keyframes clouds (rolling submap) are segmented: points between
+    # ground_height and segment_max_height, thinned to segment_voxel, clustered at
+    # segment_cluster_distance, clusters with segment_min_points points and a horizontal
+    # extent in [segment_min_extent, segment_max_extent] (walls are longer). Descriptors
+    # (major, minor, top, height, radius; m) divided by segment_descriptor_scale are
+    # matched to earlier submaps' (anchors within segment_search_radius, gated with
+    # segment_overlap_radius, the closest max_segment_candidates) with a ratio test
+    # (segment_ratio, segment_max_descriptor_distance); RANSAC (segment_ransac_*) on
+    # matched centroids needs min_segment_matches inliers; the best consensus is refined
+    # submap to submap and accepted like pose matching (segment_min_inlier_fraction).
+    segments_enabled: bool = True
+    segment_every: int = 4
+    segment_submap_keyframes: int = 10
+    segment_voxel: float = 0.1
+    segment_max_height: float = 2.0
+    segment_cluster_distance: float = 0.25
+    segment_min_points: int = 20
+    segment_min_extent: float = 0.1
+    segment_max_extent: float = 2.0
+    segment_descriptor_scale: list[float] = field(default_factory=lambda: [0.15, 0.15, 0.1, 0.1, 0.05])
+    segment_ratio: float = 0.8
+    segment_max_descriptor_distance: float = 2.0
+    segment_ransac_iterations: int = 50
+    segment_ransac_inlier_distance: float = 0.3
+    min_segment_matches: int = 2
+    segment_search_radius: float = 8.0
+    segment_overlap_radius: float = 5.0
+    max_segment_candidates: int = 4
+    segment_min_inlier_fraction: float = 0.4
+    # The verification registers the last segment_source_keyframes clouds (not the whole
+    # rolling submap: less odometry distortion, faster) against the candidate's submap.
+    segment_source_keyframes: int = 3
 
 
 @dataclass
@@ -124,3 +265,4 @@ class SlamConfig:
     keyframe_cloud_voxel: float = 0.05
     pose_graph: PoseGraphConfig = field(default_factory=PoseGraphConfig)
     scan_matcher: ScanMatcherConfig = field(default_factory=ScanMatcherConfig)
+    loop_closure: LoopClosureConfig = field(default_factory=LoopClosureConfig)

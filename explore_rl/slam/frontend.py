@@ -405,7 +405,9 @@ class ScanMatcher:
         left to the odometry factors (``off_plane_sigma``)."""
         cfg = self.config
         safe = np.where(weak, 1.0, eigenvalues)
-        variances = np.where(weak, cfg.weak_sigma**2, system.residual_var / safe)
+        variances = np.where(
+            weak, cfg.weak_sigma**2, cfg.covariance_scale * system.residual_var / safe
+        )
         rotation, translation = np.deg2rad(cfg.min_sigma_rotation_deg), cfg.min_sigma_translation
         floor = np.array([rotation, translation, translation])
         covariance = np.eye(6) * cfg.off_plane_sigma**2

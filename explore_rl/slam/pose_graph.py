@@ -158,8 +158,10 @@ class PoseGraph:
             ref = j - int(ssm.span)
             if ref < 0:
                 raise ValueError(f"scan match spans {ssm.span} keyframes; only {j} exist")
+            robust = self.config.ssm_robust_kernel != "none"
             factors.append(
-                FactorRecord(SCAN_MATCHING, ref, j, as_matrix(ssm.span_relative), ssm.covariance)
+                FactorRecord(SCAN_MATCHING, ref, j, as_matrix(ssm.span_relative), ssm.covariance,
+                             robust)
             )
         self._apply(_Batch(factors, {j: guess}))
         return j
@@ -195,7 +197,9 @@ class PoseGraph:
         pose = gtsam.Pose3(record.measurement)
         if record.j is None:
             return gtsam.PriorFactorPose3(key(record.i), pose, noise)
-        if record.robust:
+        if record.robust and record.kind == SCAN_MATCHING:
+            noise = _robust(noise, self.config.ssm_robust_kernel, self.config.ssm_robust_width)
+        elif record.robust:
             noise = _robust(noise, self.config.loop_robust_kernel, self.config.loop_robust_width)
         return gtsam.BetweenFactorPose3(key(record.i), key(record.j), pose, noise)
 

@@ -112,7 +112,12 @@ def make_frontend(config: SlamConfig) -> SequentialFrontend:
 
 
 def make_loop_closer(config: SlamConfig) -> LoopCloser:
-    """The loop-closure front end matching ``config.frontend``."""
+    """The loop-closure front end matching ``config.frontend``: pose and segment matching
+    for ``icp`` when ``config.loop_closure.enabled``, else none."""
+    if config.frontend == "icp" and config.loop_closure.enabled:
+        from explore_rl.slam.loop_closure import IcpLoopCloser
+
+        return IcpLoopCloser(config.loop_closure, config.scan_matcher)
     return NoLoopClosures()
 
 
