@@ -27,7 +27,7 @@ class VirtualMapConfig:
 class RevisitConfig:
     """When a predicted pose closes a loop with an older keyframe."""
 
-    r_lc: float = 1.0  # m; calibrate from the front end's loop-closure acceptance stats
+    r_lc: float = 2.0  # m; fitted from the icp loop-closure statistics (conf/calibration/loop_closures.yaml)
     min_travel_gap: float = 3.0  # m; travel between keyframe and pose must exceed this
     merge_keyframe_gap: int = 4  # revisited keyframes this close in index form one revisit
     keyframe_spacing: float = 0.5  # m; spacing of predicted poses along a path
