@@ -86,6 +86,7 @@ def test_empty_or_floor_only_scans_never_crash_and_fall_back_to_odometry(lidar_f
 
 
 def test_reprojection_after_moving_poses_moves_the_map(session):
+    session.rebuild_maps()
     before = session.occupancy.known_occupied.copy()
     offset = np.array([0.0, 0.5, 0.0])  # across the corridor walls the robot saw
     session.rebuild_maps(session.graph.poses_se2() + offset)
