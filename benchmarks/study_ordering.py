@@ -8,7 +8,11 @@ raw per-decision CSVs. The last stdout line is JSON with the table and the order
 * EM ends with lower map error than nearest frontier (paper: EM has the lowest error);
 * nearest frontier covers the most ground per metre; random covers the least.
 
-    python benchmarks/study_ordering.py [--quick] [--seeds 5] [--frontend icp] [--workers 2]
+    python benchmarks/study_ordering.py [--quick] [--seeds 5] [--frontend icp] [--workers 2] [--resume]
+
+Every finished run is appended to ``results/ordering_runs.jsonl`` as it completes;
+``--resume`` continues an interrupted study and ``--summarise-only`` rebuilds the table
+and plots from that log.
 """
 
 from __future__ import annotations
@@ -16,8 +20,9 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import tempfile
 import sys
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +57,13 @@ def explore_once(scene: str, policy: str, seed: int, frontend: str, extra: tuple
         "volume_m3": last.get("volume_m3", 0.0), "loop_closures": last.get("loop_closures", 0),
         "ate_m": last.get("ate_m", 0.0), "rows": rows,
     }
+
+
+def read_runs(path: Path) -> list[dict]:
+    """Runs already logged (one JSON object a line) by an earlier, interrupted study."""
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
 def summarise(runs: list[dict]) -> list[dict]:
@@ -138,21 +150,37 @@ def main() -> None:
     parser.add_argument("--frontend", default="icp", choices=["icp", "model"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=str(RESULTS))
+    parser.add_argument("--resume", action="store_true", help="keep runs already in ordering_runs.jsonl")
+    parser.add_argument("--summarise-only", action="store_true", help="no new runs: table/plots from the log")
     args = parser.parse_args()
     scenes, seeds, extra = args.scenes, range(args.seeds), ()
     if args.quick:
         scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=6",)
-    jobs = [(scene, policy, seed, args.frontend, extra) for scene in scenes for policy in POLICIES for seed in seeds]
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        runs = list(pool.map(explore_once, *zip(*jobs)))
+        args.out = tempfile.mkdtemp(prefix="ordering_quick_")  # never touch the committed results
+    args.resume = args.resume or args.summarise_only
+    # seed-major order: an interrupted study still holds whole (scene, policy) sets per seed
+    jobs = [(scene, policy, seed, args.frontend, extra) for seed in seeds for scene in scenes for policy in POLICIES]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    log = out / "ordering_runs.jsonl"
+    runs = read_runs(log) if args.resume else []
+    if not args.resume:
+        log.unlink(missing_ok=True)
+    done = {(r["scene"], r["policy"], r["seed"]) for r in runs}
+    jobs = [] if args.summarise_only else [j for j in jobs if j[:3] not in done]
+    with ProcessPoolExecutor(max_workers=args.workers) as pool, open(log, "a") as handle:
+        futures = [pool.submit(explore_once, *job) for job in jobs]
+        for future in as_completed(futures):
+            run = future.result()
+            runs.append(run)
+            handle.write(json.dumps(run) + "\n")
+            handle.flush()
     for r in runs:
         print(f"{r['scene']:7s} {r['policy']:8s} seed {r['seed']}: {r['status']:22s} {r['travel_m']:6.1f} m "
               f"explored {100 * r['explored']:5.1f} %  map error {r['map_error_m']:.3f} m  "
               f"volume {r['volume_m3']:6.1f} m3  loops {r['loop_closures']}")
     table = summarise(runs)
     checks = ordering_checks(table)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     plots = [] if args.quick else plot(runs, out)
     if not args.quick:
         write_tables(runs, table, out)
