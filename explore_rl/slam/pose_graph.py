@@ -239,10 +239,13 @@ class PoseGraph:
     def poses_matrix(self) -> np.ndarray:
         """``(N, 4, 4)`` current estimates."""
         if ("poses",) not in self._cache:
-            values = self._isam.calculateEstimate()
-            self._cache[("poses",)] = np.stack(
-                [values.atPose3(key(i)).matrix() for i in range(self._num_poses)]
-            )
+            # extractPose3: (N, 12) rows [R row-major, t] in key order (x0, x1, ...);
+            # ~3x faster than a Python loop over atPose3 at a few hundred poses.
+            flat = gtsam.utilities.extractPose3(self._isam.calculateEstimate())
+            T = np.tile(np.eye(4), (len(flat), 1, 1))
+            T[:, :3, :3] = flat[:, :9].reshape(-1, 3, 3)
+            T[:, :3, 3] = flat[:, 9:]
+            self._cache[("poses",)] = T
         return self._cache[("poses",)].copy()
 
     def poses_se2(self) -> np.ndarray:

@@ -108,7 +108,11 @@ def make_frontend(config: SlamConfig) -> SequentialFrontend:
     """The sequential front end named by ``config.frontend``."""
     if config.frontend == "icp":
         return IcpFrontend(config)
-    raise ValueError(f"unknown slam.frontend={config.frontend!r}; choose icp")
+    if config.frontend == "model":
+        from explore_rl.slam.frontend_model import ModelFrontend
+
+        return ModelFrontend(config)
+    raise ValueError(f"unknown slam.frontend={config.frontend!r}; choose icp or model")
 
 
 def make_loop_closer(config: SlamConfig) -> LoopCloser:
@@ -118,6 +122,10 @@ def make_loop_closer(config: SlamConfig) -> LoopCloser:
         from explore_rl.slam.loop_closure import IcpLoopCloser
 
         return IcpLoopCloser(config.loop_closure, config.scan_matcher)
+    if config.frontend == "model" and config.loop_closure.enabled:
+        from explore_rl.slam.frontend_model import ModelLoopCloser
+
+        return ModelLoopCloser(config.loop_closure)
     return NoLoopClosures()
 
 

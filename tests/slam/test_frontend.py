@@ -204,7 +204,7 @@ def test_sequence_spans_a_degenerate_frame():
     """A floor-only keyframe falls back to the wheel delta; the next match is measured
     from the last registered keyframe (span 2), free of that wheel error."""
     rng = np.random.default_rng(4)
-    matcher = ScanMatcher(ScanMatcherConfig())
+    matcher = ScanMatcher(ScanMatcherConfig(max_span=5))
     poses = [np.array([1.5 + 0.4 * k, 2.0 + 0.1 * k, 0.1 * k]) for k in range(6)]
     wheel_error = np.array([0.03, -0.02, 0.01])
     matcher.register(scan(room_points(rng), poses[0], rng), np.eye(4))

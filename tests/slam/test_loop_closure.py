@@ -287,7 +287,9 @@ def test_make_loop_closer_follows_the_config():
     assert isinstance(make_loop_closer(SlamConfig()), IcpLoopCloser)
     off = SlamConfig(loop_closure=LoopClosureConfig(enabled=False))
     assert isinstance(make_loop_closer(off), NoLoopClosures)
-    assert isinstance(make_loop_closer(SlamConfig(frontend="model")), NoLoopClosures)
+    from explore_rl.slam.frontend_model import ModelLoopCloser
+
+    assert isinstance(make_loop_closer(SlamConfig(frontend="model")), ModelLoopCloser)
 
 
 def test_conf_yaml_mirrors_loop_closure_defaults():

@@ -1,0 +1,483 @@
+"""The ``model`` SLAM front end: scan-matching and loop-closure factors sampled from noise
+models fitted to the ``icp`` front end, with no point-cloud registration.
+
+Same pose graph, same factor kinds and the same sequence structure as ``slam.frontend=icp``
+(DESIGN.md, "Two front-end fidelities, one back end"); only how a measurement is made
+differs. The LiDAR still runs: the 2D/3D maps and the map-error sample are built from the
+same scans in both modes.
+
+**Sequential scan matching** (:class:`ModelFrontend`, per keyframe, ~0.05 ms):
+
+1. what the scan sees: :func:`obstacle_points`, the number of points in the obstacle
+   height band (one vectorised comparison over the cloud);
+2. degenerate or not: a draw with the fitted rate for that statistic's bin, after a usable
+   or after a degenerate keyframe (degenerate keyframes come in runs), plus the icp
+   front end's forced submap restart after ``max_span`` degenerate keyframes; a
+   degenerate keyframe gets no factor (odometry only), like icp;
+3. otherwise the number of weak planar directions (0, 1, 2) from its fitted
+   distribution for the bin, and the condition (weak count x straight/turned);
+4. the reported standard deviations (yaw, constrained translation), drawn at one random
+   level from the condition's quantiles of the sigmas icp reported; the covariance is
+   those along the constrained directions, ``weak_sigma`` along weak ones and
+   ``off_plane_sigma`` off-plane;
+5. the measurement of the motion since the last anchored keyframe (``span``, as icp):
+   the true motion plus a yaw error (fully constrained matches: the drawn sigma times a
+   standardised error from the fitted mixture, so errors scale with the reported sigma as
+   in icp; otherwise the fitted raw yaw mixture) and an error along each constrained
+   translation axis from the fitted mixture; along weak directions (a translation axis at
+   the fitted angle from body x; for weak 2 also the yaw) the wheel-odometry prior is
+   kept, so the error there is the odometry error, as in icp.
+
+**Loop closures** (:class:`ModelLoopCloser`): the icp loop closer's candidate rules
+(current estimates within ``search_radius``, travel and index gaps, one candidate per
+run of indices, line of sight on the 2D map), then instead of gating on the joint
+marginal and registering: a pair close (in keyframes) to an earlier accepted closure is
+"not worth" a registration (its relative pose is already known to the icp gate's
+``min_sigma_*``), else it is accepted with the fitted per-attempt rate at its estimated
+distance; the measurement is the true relative pose plus a normal error with the fitted
+RMS of accepted closures, with the icp loop factor's covariance floors. Segment matching:
+once per revisit (a run of segmentation steps with a candidate within
+``segment_search_radius``) with the fitted per-revisit rate.
+
+**What was fitted, where, how well.** ``conf/calibration/scan_matching.yaml`` comes from
+``scripts/calibrate_scan_matching.py``: the icp front end (kiss-icp + point-to-plane
+refinement, floor dropped, voxel 0.1 m) with loop closures off on 8 office-tour seeds and
+40-decision nearest-frontier explorations of the office, street and garage (2 seeds
+each): 4,403 matches. Degenerate keyframes: 4.7 % (after a usable keyframe 1-5 % for scans
+with >=100 obstacle-band points, 80 % below). Usable matches: yaw error std 0.12 deg --
+per condition a 0.025-0.046 deg core with a 22-26 % tail of 0.09-0.39 deg (0 or 1 weak
+direction), 0.42-0.47 deg with 2 weak directions; translation along constrained axes
+1-2.4 mm core. How honest icp's own covariance is: Mahalanobis d^2 per dof 1.46, 4.2 %
+beyond the chi-square 99 % quantile (the tail; the SSM factors are Cauchy-robust), median
+p-value 0.66. ``tests/slam/test_frontend_model.py`` checks that the model's samples
+reproduce these (std and quantiles of the yaw error within 20 %, degenerate and weak
+rates within binomial noise). ``conf/calibration/loop_closures.yaml``
+(``scripts/calibrate_loop_closures.py``, 8 office tours) gives the acceptance rates and
+the error of accepted closures (pose matching: 3.2 cm, 0.19 deg RMS).
+
+On the same office tours (``benchmarks/bench_frontends.py``, 5 seeds, 2 model draws
+each; full numbers in benchmarks/RESULTS.md) the model's mean ATE, map error and
+loop-closure count fall within the spread of icp's over the seeds, and its SLAM stage
+(registration + iSAM2 + loop closures) is 15-20x cheaper -- iSAM2 itself (~0.7 ms per
+keyframe, the same in both modes) is most of what is left. The LiDAR stays (measured on
+an office tour, 183 keyframes): the 3D voxel map and the map-error sample need the 3D
+scan anyway; a vectorised 2D ray cast on the true obstacle grid gave nearly the same
+explored fraction (65.3 vs 65.2 %) but not the same grid (4 % of known-free and 70 % of
+known-occupied cells differ: hits land on other wall cells) and was no cheaper in numpy
+(6.7 vs 13 ms under load for the 3D scan and its collapse; mj_multiRay itself is ~4.3 ms
+of that, a 900-ray horizontal ring ~0.3 ms but it sees one height only).
+"""
+
+from __future__ import annotations
+
+import bisect
+import hashlib
+import math
+import time
+
+import numpy as np
+
+from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix
+from explore_rl.slam.calibration import (
+    LoopClosureCalibration,
+    ScanMatchingCalibration,
+    cached_loop_closures,
+    cached_scan_matching,
+    draw_index,
+)
+from explore_rl.slam.config import LoopClosureConfig, SlamConfig
+from explore_rl.slam.frontend import ScanMatch
+
+POSE_MATCHING = "pose_matching"
+SEGMENT_MATCHING = "segment_matching"
+
+
+def obstacle_points(points_sensor: np.ndarray, mount_height: float, min_height: float = 0.15,
+                    max_height: float = 0.6, stride: int = 1) -> int:
+    """Number of scan points between ``min_height`` and ``max_height`` above the floor
+    (sensor-frame z + ``mount_height``): the statistic the degenerate rate is fitted on.
+    ``stride > 1`` estimates it from every ``stride``-th point (the scan's points come
+    ring by ring, so a stride samples every ring evenly)."""
+    z = np.asarray(points_sensor)[::stride, 2] if len(points_sensor) else np.zeros(0)
+    return stride * int(np.count_nonzero((z >= min_height - mount_height) & (z <= max_height - mount_height)))
+
+
+def seed_from_points(points: np.ndarray) -> int:
+    """A reproducible seed from a scan (itself seeded by the run's seed)."""
+    return int.from_bytes(hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=8).digest(),
+                          "little")
+
+
+def planar_covariance_6x6(planar: np.ndarray, off_plane_sigma: float) -> np.ndarray:
+    """6x6 Pose3 covariance: ``planar`` (yaw, x, y) at rows/columns ``PLANAR`` (2, 3, 4:
+    contiguous, so a slice)."""
+    covariance = np.zeros((6, 6))
+    covariance[0, 0] = covariance[1, 1] = covariance[5, 5] = off_plane_sigma**2
+    covariance[2:5, 2:5] = planar
+    return covariance
+
+
+
+class ModelFrontend:
+    """Sequential scan matches sampled from the fitted icp error model (module docstring).
+
+    ``register(points_sensor, wheel_delta, true_delta) -> ScanMatch`` like the icp front
+    end; deltas are planar 4x4 transforms. ``rng``: the generator of the draws; by default
+    it is seeded from the first scan (reproducible for a given run seed).
+    """
+
+    # The statistic from every 4th point: 4x cheaper, within a few % of the full count
+    # (the fitted bins are 1.5-4x wide).
+    stride = 4
+
+    def __init__(self, config: SlamConfig, calibration: ScanMatchingCalibration | None = None,
+                 rng: np.random.Generator | None = None, mount_height: float | None = None):
+        self.config = config
+        self.calibration = calibration if calibration is not None else cached_scan_matching()
+        self.rng = rng
+        cal = self.calibration
+        self.mount_height = cal.mount_height if mount_height is None else mount_height
+        self._band = (cal.statistic_min_height, cal.statistic_max_height)
+        self._turn = np.deg2rad(cal.turn_threshold_deg)
+        self._degenerate_covariance = np.eye(6) * config.scan_matcher.degenerate_sigma**2
+        self._edges = list(cal.bin_edges)
+        # Cumulative planar true and wheel-odometry poses (x, y, yaw) of the keyframes.
+        self._true: list[tuple[float, float, float]] = []
+        self._wheel: list[tuple[float, float, float]] = []
+        self._since_anchor = 0
+        self._previous_degenerate = False
+
+    def register(self, points_sensor: np.ndarray, wheel_delta: np.ndarray,
+                 true_delta: np.ndarray) -> ScanMatch:
+        start = time.perf_counter()
+        cal = self.calibration
+        points = np.asarray(points_sensor, dtype=float).reshape(-1, 3)
+        if self.rng is None:
+            self.rng = np.random.default_rng(seed_from_points(points))
+        statistic = obstacle_points(points, self.mount_height, *self._band, stride=self.stride)
+        wheel = planar(wheel_delta)
+        if not self._true:  # the first keyframe starts the submap: no factor (as icp)
+            self._true.append((0.0, 0.0, 0.0))
+            self._wheel.append((0.0, 0.0, 0.0))
+            return self._degenerate(wheel_delta, statistic, start)
+        self._true.append(compose(self._true[-1], planar(true_delta)))
+        self._wheel.append(compose(self._wheel[-1], wheel))
+
+        forced = self._since_anchor >= cal.max_span
+        k = min(max(bisect.bisect_right(self._edges, statistic) - 1, 0), len(cal.degenerate_rate) - 1)
+        rate = cal.degenerate_rate_after_degenerate[k] if self._previous_degenerate else cal.degenerate_rate[k]
+        if forced or self.rng.random() < rate:
+            self._since_anchor = 0 if forced else self._since_anchor + 1
+            self._previous_degenerate = True
+            return self._degenerate(wheel_delta, statistic, start)
+
+        weak = draw_index(cal.weak_probabilities[k], self.rng)
+        match = self._measure(weak, abs(wheel[2]) > self._turn, statistic)
+        self._since_anchor, self._previous_degenerate = 0, False
+        match.ms = (time.perf_counter() - start) * 1e3
+        return match
+
+    def _measure(self, weak: int, turned: bool, statistic: int) -> ScanMatch:
+        cal, rng = self.calibration, self.rng
+        condition = cal.condition(weak, turned)
+        span = self._since_anchor + 1
+        j = len(self._true) - 1
+        truth = between(self._true[j - span], self._true[j])
+        wheel_span = between(self._wheel[j - span], self._wheel[j])
+        wheel_error = np.array(between(truth, wheel_span))  # [x, y, yaw]
+        sigma_yaw_deg, sigma_t = condition.draw_sigmas(rng)
+        sigma_yaw = math.radians(sigma_yaw_deg)
+        # The yaw error of a fully constrained match scales with its reported sigma, as in
+        # icp (sigma x standardised error keeps the weighting the graph sees). Elsewhere
+        # the fitted raw mixtures: with a weak direction the reported yaw sigma mostly
+        # measures how much the weak direction leaks into yaw; and sigma x z drawn
+        # independently under-states the translation tail (~25 %: large errors come
+        # with large sigmas).
+        if condition.yaw_z is not None and weak == 0:
+            yaw_error = sigma_yaw * condition.yaw_z.sample(rng)
+        else:
+            yaw_error = math.radians(condition.yaw_deg.sample(rng))
+        weak_var = cal.weak_sigma**2
+        planar_cov = np.zeros((3, 3))
+        if weak == 0:
+            translation = condition.translation.sample(rng, 2)
+            planar_cov[0, 0] = sigma_yaw**2
+            planar_cov[1:, 1:] = np.eye(2) * sigma_t**2
+        else:
+            angle = math.radians(condition.weak_angle_deg.sample(rng))
+            axis = np.array([math.cos(angle), math.sin(angle) * (1.0 if rng.random() < 0.5 else -1.0)])
+            u, v = (axis, perpendicular(axis)) if weak == 1 else (perpendicular(axis), axis)
+            translation = (wheel_error[:2] @ u) * u + condition.translation.sample(rng) * v
+            planar_cov[1:, 1:] = sigma_t**2 * np.outer(v, v) + weak_var * np.outer(u, u)
+            if weak == 1:
+                planar_cov[0, 0] = sigma_yaw**2
+            else:  # the yaw is weak too: it keeps the prior
+                yaw_error = wheel_error[2]
+                planar_cov[0, 0] = weak_var
+        measured = compose(truth, (float(translation[0]), float(translation[1]), float(yaw_error)))
+        previous = between(self._wheel[j - span], self._wheel[j - 1])
+        return ScanMatch(
+            relative=matrix(between(previous, measured)),
+            covariance=planar_covariance_6x6(planar_cov, cal.off_plane_sigma),
+            degenerate=False, weak_directions=weak, n_points=statistic, ms=0.0, n_inliers=0,
+            span=span, span_relative=matrix(measured))
+
+    def _degenerate(self, wheel_delta: np.ndarray, statistic: int, start: float) -> ScanMatch:
+        return ScanMatch(relative=np.array(wheel_delta, dtype=float), covariance=self._degenerate_covariance.copy(),
+                         degenerate=True, weak_directions=3, n_points=statistic,
+                         ms=(time.perf_counter() - start) * 1e3)
+
+
+# Scalar SE(2) helpers: the vectorised ones in explore_rl.geometry cost ~40 us per call
+# on single poses, more than everything else the model does per keyframe.
+
+
+def planar(T: np.ndarray) -> tuple[float, float, float]:
+    """``(x, y, yaw)`` of a 4x4 planar transform."""
+    return float(T[0, 3]), float(T[1, 3]), math.atan2(T[1, 0], T[0, 0])
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def compose(a, b) -> tuple[float, float, float]:
+    """``a (+) b`` for planar poses."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], _wrap(a[2] + b[2])
+
+
+def between(a, b) -> tuple[float, float, float]:
+    """``a^-1 (+) b`` for planar poses."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return c * dx + s * dy, -s * dx + c * dy, _wrap(b[2] - a[2])
+
+
+def matrix(p) -> np.ndarray:
+    """4x4 transform of a planar pose."""
+    c, s = math.cos(p[2]), math.sin(p[2])
+    T = np.eye(4)
+    T[0, 0], T[0, 1], T[1, 0], T[1, 1], T[0, 3], T[1, 3] = c, -s, s, c, p[0], p[1]
+    return T
+
+
+def perpendicular(axis: np.ndarray) -> np.ndarray:
+    return np.array([-axis[1], axis[0]])
+
+
+def segments_clear(start_xy: np.ndarray, ends_xy: np.ndarray, blocked: np.ndarray, grid,
+                   step_fraction: float = 0.5) -> np.ndarray:
+    """Whether each segment ``start_xy -> ends_xy[k]`` misses every ``blocked`` cell
+    (samples every ``step_fraction`` cells, start excluded; cells outside the grid do not
+    block). The same test as ``planning.virtual_map.line_of_sight`` for one start point,
+    without padding the whole grid per call."""
+    delta = ends_xy - start_xy
+    length = np.hypot(delta[:, 0], delta[:, 1])
+    step = step_fraction * grid.resolution
+    n = max(int(np.ceil(length.max() / step)), 1) if len(length) else 1
+    t = np.minimum(np.arange(1, n + 1)[None, :] * step, length[:, None])  # (K, n)
+    unit = delta / np.where(length > 0, length, 1.0)[:, None]
+    xy = start_xy + t[..., None] * unit[:, None, :]
+    cells = grid.world_to_cell(xy)
+    inside = (cells[..., 0] >= 0) & (cells[..., 0] < blocked.shape[0]) & \
+        (cells[..., 1] >= 0) & (cells[..., 1] < blocked.shape[1])
+    hit = np.zeros(cells.shape[:2], dtype=bool)
+    hit[inside] = blocked[cells[..., 0][inside], cells[..., 1][inside]]
+    return ~hit.any(axis=1)
+
+
+class ModelLoopCloser:
+    """Loop closures accepted where the icp candidate rules and the fitted acceptance
+    rates say so; measurements drawn from the fitted loop error (module docstring).
+
+    ``config`` is the icp loop closer's :class:`LoopClosureConfig` (candidate rules, factor
+    floors, ``enabled``); ``step_sigma_*``: how fast the relative pose of a pair next to an
+    accepted closure becomes uncertain again, per keyframe of index distance (the
+    odometry + scan matching sigma of one keyframe) -- the stand-in for the icp gate's
+    joint marginal.
+    """
+
+    # Chosen so that the model's closure counts match icp's on the office tour (5 seeds,
+    # the same trajectories: icp 22-28 per tour, mean 24.8; 0.009/0.08 gave 16-36, mean
+    # 24; 0.008/0.07: mean 19; 0.012/0.1: mean 41).
+    step_sigma_translation = 0.009
+    step_sigma_rotation_deg = 0.08
+
+    def __init__(self, config: LoopClosureConfig, calibration: LoopClosureCalibration | None = None,
+                 rng: np.random.Generator | None = None):
+        self.config = config
+        self.calibration = calibration if calibration is not None else cached_loop_closures()
+        self.rng = rng
+        self.closures: dict[str, int] = {POSE_MATCHING: 0, SEGMENT_MATCHING: 0}
+        self.accepted: list[tuple[int, int]] = []
+        self._nodes: list[int] = []  # endpoints of accepted closures
+        self._distance = np.zeros((0, 0))
+        self._through = np.zeros((0, 0))
+        self._segment_revisit: list[int] = []  # candidates of the previous segmentation step
+        self._travel: list[float] = []  # keyframe travel, appended as keyframes arrive
+
+    def process(self, session) -> int:
+        cfg = self.config
+        if not cfg.enabled or len(session.keyframes) < 2:
+            return 0
+        if self.rng is None:
+            self.rng = np.random.default_rng(seed_from_points(session.keyframes[0].error_points))
+        j = len(session.keyframes) - 1
+        poses = self._estimates(session, j)
+        self._travel.extend(k.travel for k in session.keyframes[len(self._travel):])
+        travel = np.asarray(self._travel)
+        added = self._pose_matching(session, poses, travel, j)
+        if (cfg.segments_enabled and added < cfg.max_closures_per_keyframe
+                and SEGMENT_MATCHING in self.calibration.sources):
+            added += self._segment_matching(session, poses, travel, j)
+        return added
+
+    @staticmethod
+    def _estimates(session, j: int) -> np.ndarray:
+        """Planar estimates of keyframes 0..j: the poses the maps were last built at
+        (within a map cell of the current estimates: the maps are rebuilt when any moves
+        further) and the newest estimate. Avoids a full iSAM2 estimate per keyframe (the
+        maps stage computes it anyway, after the loop closures)."""
+        mapped = getattr(session, "_map_poses", None)
+        if mapped is None or len(mapped) != j:
+            return session.graph.poses_se2()
+        newest = session.graph.pose(j)
+        return np.vstack([mapped, [[newest[0, 3], newest[1, 3], math.atan2(newest[1, 0], newest[0, 0])]]])
+
+    # ------------------------------------------------------------------ candidates
+
+    def candidates(self, session, poses: np.ndarray, travel: np.ndarray, j: int, radius: float,
+                   keep=None) -> tuple[list[int], list[int]]:
+        """The icp loop closer's candidate rules, closest first: ``(picked, visible)``.
+
+        ``picked``: within ``radius``, past the travel and index gaps, one per run of
+        ``candidate_separation`` indices. ``visible``: the first ``max_candidates`` of them
+        that pass ``keep(i)`` (checked before the line-of-sight test, which is the costly
+        part) and have line of sight on the 2D map."""
+        cfg = self.config
+        last = j - cfg.min_index_gap + 1  # keyframes 0..last-1 may be candidates
+        if last <= 0:
+            return [], []
+        distance = np.hypot(*(poses[:last, :2] - poses[j, :2]).T)
+        ok = (distance <= radius) & (travel[j] - travel[:last] >= cfg.min_travel_gap)
+        if not ok.any():
+            return [], []
+        picked: list[int] = []
+        for i in np.flatnonzero(ok)[np.argsort(distance[ok], kind="stable")].tolist():
+            if all(abs(i - p) >= cfg.candidate_separation for p in picked):
+                picked.append(i)
+                if len(picked) >= 3 * cfg.max_candidates:  # enough to survive line of sight
+                    break
+        kept = [i for i in picked if keep is None or keep(i)]
+        if not cfg.line_of_sight:
+            return picked, kept[: cfg.max_candidates]
+        visible: list[int] = []
+        blocked = session.occupancy.known_occupied
+        for start in range(0, len(kept), cfg.max_candidates):  # closest first, until enough
+            batch = kept[start: start + cfg.max_candidates]
+            clear = segments_clear(poses[j, :2], poses[batch, :2], blocked, session.scene.grid)
+            visible += [i for i, c in zip(batch, clear) if c]
+            if len(visible) >= cfg.max_candidates:
+                break
+        return picked, visible[: cfg.max_candidates]
+
+    def worth(self, i: int, j: int) -> bool:
+        """False if accepted closures already pin the relative pose of (i, j) below the
+        icp gate's ``min_sigma_*`` (icp would not register the pair). Stand-in for the
+        joint marginal: the relative sigma is the loop factor floor plus ``step_sigma_*``
+        per keyframe along the shortest path from i to j that uses accepted closures
+        as free links (:meth:`steps_via_closures`)."""
+        cfg = self.config
+        limit = min((cfg.min_sigma_translation**2 - cfg.sigma_translation**2) / self.step_sigma_translation**2,
+                    (cfg.min_sigma_rotation_deg**2 - cfg.sigma_rotation_deg**2) / self.step_sigma_rotation_deg**2)
+        return self.steps_via_closures(i, j) >= limit
+
+    def steps_via_closures(self, i: int, j: int) -> float:
+        """Fewest keyframe steps from i to j on a path that uses at least one accepted
+        closure (inf if none): ``min |i - p| + D[p, q] + |q - j|`` over closure
+        endpoints p, q, with ``D`` their all-pairs distances (kept up to date in
+        :meth:`_link`; closures are zero-length links)."""
+        if not self._nodes:
+            return float("inf")
+        nodes = np.asarray(self._nodes)
+        di, dj = np.abs(nodes - i), np.abs(nodes - j)
+        return float(np.min(di[:, None] + self._through[: len(nodes), : len(nodes)] + dj[None, :]))
+
+    def _link(self, a: int, b: int) -> None:
+        """Add closure (a, b) to the endpoint distance tables.
+
+        ``_distance[p, q]``: fewest steps between endpoints p and q (chain and closures);
+        ``_through[p, q]``: the same restricted to paths that use at least one closure."""
+        for x in (a, b):
+            if x in self._nodes:
+                continue
+            n = len(self._nodes)
+            chain = np.abs(np.asarray(self._nodes, dtype=float) - x)
+            distance = np.full((n + 1, n + 1), np.inf)
+            through = np.full((n + 1, n + 1), np.inf)
+            distance[:n, :n], through[:n, :n] = self._distance, self._through
+            if n:  # x reaches the others along the chain to some endpoint, then on
+                distance[n, :n] = distance[:n, n] = np.min(chain[:, None] + self._distance, axis=0)
+                through[n, :n] = through[:n, n] = np.min(chain[:, None] + self._through, axis=0)
+            distance[n, n] = 0.0
+            self._distance, self._through = distance, through
+            self._nodes.append(x)
+        ia, ib = self._nodes.index(a), self._nodes.index(b)
+        D = self._distance
+        via = np.minimum(D[:, ia][:, None] + D[ib][None, :], D[:, ib][:, None] + D[ia][None, :])
+        self._through = np.minimum(self._through, via)
+        self._distance = np.minimum(D, via)
+
+    # ------------------------------------------------------------------ sources
+
+    def _pose_matching(self, session, poses, travel, j) -> int:
+        cfg = self.config
+        source = self.calibration.sources.get(POSE_MATCHING)
+        if source is None:
+            return 0
+        _, candidates = self.candidates(session, poses, travel, j, cfg.search_radius,
+                                        keep=lambda i: self.worth(i, j))
+        added = 0
+        for i in candidates[: cfg.max_attempts_per_keyframe]:
+            if added >= cfg.max_closures_per_keyframe:
+                break
+            distance = math.hypot(*(poses[i, :2] - poses[j, :2]))
+            if self.rng.random() < source.rate(distance, "attempt"):
+                added += self._add(session, i, j, POSE_MATCHING)
+        return added
+
+    def _segment_matching(self, session, poses, travel, j) -> int:
+        cfg = self.config
+        if j % cfg.segment_every or j + 1 < cfg.segment_submap_keyframes:
+            return 0
+        source = self.calibration.sources[SEGMENT_MATCHING]
+        previous = self._segment_revisit
+
+        def starts_revisit(i: int) -> bool:  # one draw per revisit
+            near = any(abs(i - p) < cfg.segment_submap_keyframes for p in previous)
+            return not near and self.worth(i, j)
+
+        picked, candidates = self.candidates(session, poses, travel, j, cfg.segment_search_radius,
+                                             keep=starts_revisit)
+        self._segment_revisit = picked
+        for i in candidates:
+            distance = math.hypot(*(poses[i, :2] - poses[j, :2]))
+            if self.rng.random() < source.rate(distance, "revisit"):
+                return self._add(session, i, j, SEGMENT_MATCHING)
+        return 0
+
+    def _add(self, session, i: int, j: int, kind: str) -> int:
+        cfg, rng = self.config, self.rng
+        source = self.calibration.sources[kind]
+        truth = se2_between(session.keyframes[i].true_pose, session.keyframes[j].true_pose)
+        error = np.array([*rng.normal(0.0, source.rms_translation / np.sqrt(2.0), 2),
+                          rng.normal(0.0, np.deg2rad(source.rms_rotation_deg))])
+        planar_cov = np.diag([np.deg2rad(cfg.sigma_rotation_deg) ** 2, cfg.sigma_translation**2,
+                              cfg.sigma_translation**2])
+        session.graph.add_loop_closure(i, j, se2_to_matrix(se2_compose(truth, error)),
+                                       planar_covariance_6x6(planar_cov, cfg.off_plane_sigma), kind)
+        self.closures[kind] += 1
+        self.accepted.append((i, j))
+        self._link(i, j)
+        return 1

@@ -1,0 +1,314 @@
+"""The `model` front end: fitted statistics reproduced, same graph structure as icp, clear
+errors for bad calibration files."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from explore_rl.geometry import matrix_to_se2, se2_between, se2_compose, se2_to_matrix
+from explore_rl.slam.calibration import (
+    SCAN_MATCHING_FILE,
+    CalibrationError,
+    load_loop_closures,
+    load_scan_matching,
+)
+from explore_rl.slam.config import SlamConfig
+from explore_rl.slam.frontend_model import ModelFrontend, obstacle_points
+
+CAL = load_scan_matching()
+
+
+def cloud_in_bin(k: int, rng: np.random.Generator) -> np.ndarray:
+    """A sensor-frame cloud whose obstacle-band count falls in calibration bin ``k``."""
+    lo, hi = CAL.bin_edges[k], min(CAL.bin_edges[k + 1], CAL.bin_edges[k] + 3000)
+    n = int((lo + hi) / 2)
+    z = rng.uniform(CAL.statistic_min_height, CAL.statistic_max_height, n) - CAL.mount_height
+    floor = np.column_stack([rng.uniform(-2, 2, (200, 2)), np.full(200, -CAL.mount_height)])
+    points = np.vstack([np.column_stack([rng.uniform(-3, 3, (n, 2)), z]), floor])
+    assert CAL.bin(obstacle_points(points, CAL.mount_height)) == k
+    return points
+
+
+def abs_quantile(mixture, q: float) -> float:
+    """The q-quantile of |x| under a zero-mean two-normal scale mixture."""
+    from scipy.optimize import brentq
+    from scipy.stats import norm
+
+    def cdf(x):
+        return ((1 - mixture.tail_fraction) * (2 * norm.cdf(x / mixture.core_sigma) - 1)
+                + mixture.tail_fraction * (2 * norm.cdf(x / mixture.tail_sigma) - 1))
+
+    return brentq(lambda x: cdf(x) - q, 0.0, 20 * mixture.tail_sigma)
+
+
+def condition_error_std(weak: int, turn: bool) -> float:
+    document = yaml.safe_load(SCAN_MATCHING_FILE.read_text())
+    name = f"weak{weak}_{'turned' if turn else 'straight'}"
+    return document["conditions"][name]["error_std"]["yaw_deg"]
+
+
+def drive(frontend: ModelFrontend, points: np.ndarray, n: int, rng: np.random.Generator,
+          turn: bool = False, wheel_noise: float = 0.0):
+    """``n`` keyframes of 0.5 m (or 15 deg turns); returns [(match, true span motion)]."""
+    true_delta = np.array([0.0, 0.0, np.deg2rad(15.0)]) if turn else np.array([0.5, 0.0, 0.0])
+    true_poses, out = [np.zeros(3)], []
+    frontend.register(points, np.eye(4), np.eye(4))
+    for _ in range(n):
+        wheel = true_delta + rng.normal(0.0, wheel_noise, 3)
+        true_poses.append(se2_compose(true_poses[-1], true_delta))
+        match = frontend.register(points, se2_to_matrix(wheel), se2_to_matrix(true_delta))
+        span_truth = se2_between(true_poses[-1 - match.span], true_poses[-1])
+        out.append((match, span_truth))
+    return out
+
+
+def test_degenerate_and_weak_rates_match_the_fit():
+    rng = np.random.default_rng(0)
+    for k in (2, 5):
+        frontend = ModelFrontend(SlamConfig(), CAL, np.random.default_rng(k))
+        results = drive(frontend, cloud_in_bin(k, rng), 3000, rng)
+        degenerate = np.array([m.degenerate for m, _ in results])
+        after_usable = np.r_[True, ~degenerate[:-1]]  # the first follows the (anchoring) start
+        rate = degenerate[after_usable].mean()
+        n = after_usable.sum()
+        expected = CAL.degenerate_rate[k]
+        assert abs(rate - expected) < 4 * np.sqrt(expected * (1 - expected) / n) + 0.01, (k, rate, expected)
+        weak = np.array([m.weak_directions for m, _ in results if not m.degenerate])
+        frequencies = np.bincount(weak, minlength=3)[:3] / len(weak)
+        assert np.allclose(frequencies, CAL.weak_probabilities[k], atol=0.04), (k, frequencies)
+        # With max_span 1 a drawn degenerate keyframe is always followed by a forced
+        # restart (degenerate too, no factor): runs of degenerate keyframes are even.
+        if CAL.max_span == 1:
+            edges = np.flatnonzero(np.diff(np.r_[0, degenerate.astype(int), 0]))
+            starts, ends = edges[::2], edges[1::2]
+            complete = ends < len(degenerate)  # the last run may be cut by the end of the drive
+            assert np.all((ends - starts)[complete] % 2 == 0)
+
+
+@pytest.mark.parametrize("turn", [False, True])
+def test_sampled_errors_reproduce_the_fitted_mixtures(turn):
+    rng = np.random.default_rng(1)
+    k = len(CAL.degenerate_rate) - 1  # many obstacle points: few degenerate keyframes
+    frontend = ModelFrontend(SlamConfig(), CAL, np.random.default_rng(2))
+    results = drive(frontend, cloud_in_bin(k, rng), 6000, rng, turn=turn)  # exact wheel odometry
+    for weak in (0, 1):
+        condition = CAL.condition(weak, turn)
+        chosen = [(m, t) for m, t in results if not m.degenerate and m.weak_directions == weak]
+        errors = np.array([se2_between(t, matrix_to_se2(m.span_relative)) for m, t in chosen])
+        yaw = np.rad2deg(errors[:, 2])
+        assert len(chosen) > 300
+        assert yaw.std() == pytest.approx(condition.yaw_deg.std, rel=0.2), (weak, yaw.std())
+        for q in (0.5, 0.9):
+            assert np.quantile(np.abs(yaw), q) == pytest.approx(abs_quantile(condition.yaw_deg, q), rel=0.2)
+        # ... and so the statistics of the icp errors the mixtures were fitted to.
+        assert yaw.std() == pytest.approx(condition_error_std(weak, turn), rel=0.25)
+        # The constrained translation error; along the weak axis the (exact) wheel prior is kept.
+        translation = np.linalg.norm(errors[:, :2], axis=1)
+        expected = condition.translation.std * np.sqrt(2.0 if weak == 0 else 1.0)
+        assert np.sqrt(np.mean(translation**2)) == pytest.approx(expected, rel=0.2), weak
+        # Reported covariance: sigmas drawn from the fitted quantiles of icp's (median
+        # preserved) along constrained directions, weak_sigma along weak ones; the errors
+        # divided by them follow the fitted standardised mixture.
+        planar = np.array([m.covariance[np.ix_([2, 3, 4], [2, 3, 4])] for m, _ in chosen])
+        sigma_yaw = np.rad2deg(np.sqrt(planar[:, 0, 0]))
+        values = np.linalg.eigvalsh(planar[:, 1:, 1:])
+        assert np.median(sigma_yaw) == pytest.approx(condition.reported_sigma_yaw_deg, rel=0.1)
+        assert np.median(np.sqrt(values[:, 0])) == pytest.approx(condition.reported_sigma_translation, rel=0.1)
+        assert sigma_yaw.min() >= condition.sigma_yaw_deg_quantiles[0] - 1e-9
+        assert sigma_yaw.max() <= condition.sigma_yaw_deg_quantiles[-1] + 1e-9
+        if weak:
+            assert np.allclose(np.sqrt(values[:, -1]), CAL.weak_sigma)
+        if weak == 0:
+            assert (yaw / sigma_yaw).std() == pytest.approx(condition.yaw_z.std, rel=0.2)
+
+
+def test_weak_axis_keeps_the_wheel_prior_and_spans_follow_degenerate_keyframes():
+    rng = np.random.default_rng(3)
+    cal = replace(CAL, weak_probabilities=tuple((0.0, 1.0, 0.0) for _ in CAL.weak_probabilities))
+    frontend = ModelFrontend(SlamConfig(), cal, np.random.default_rng(4))
+    results = drive(frontend, cloud_in_bin(3, rng), 500, rng, wheel_noise=0.02)
+    for match, truth in results:
+        if match.degenerate:
+            assert match.weak_directions == 3 and not match.usable
+            continue
+        assert match.weak_directions == 1 and match.span >= 1
+        planar = match.covariance[np.ix_([3, 4], [3, 4])]
+        values, vectors = np.linalg.eigh(planar)
+        assert np.sqrt(values[-1]) == pytest.approx(cal.weak_sigma)
+    spans = [m.span for m, _ in results if not m.degenerate]
+    assert max(spans) <= cal.max_span + 1
+
+
+def test_model_is_reproducible_and_cheap():
+    rng = np.random.default_rng(5)
+    points = cloud_in_bin(4, rng)
+    a = drive(ModelFrontend(SlamConfig(), CAL), points, 50, np.random.default_rng(6))
+    b = drive(ModelFrontend(SlamConfig(), CAL), points, 50, np.random.default_rng(6))
+    assert all(np.allclose(x.span_relative, y.span_relative) for (x, _), (y, _) in zip(a, b))
+    assert np.median([m.ms for m, _ in a]) < 1.0
+
+
+# ---------------------------------------------------------------- same graph structure
+
+
+def _replay(config, overrides, steps, scene):
+    from explore_rl.sensors.lidar import Lidar
+    from explore_rl.slam.session import SlamSession
+
+    slam = replace(config.slam, frontend=overrides)
+    slam = replace(slam, loop_closure=replace(slam.loop_closure, enabled=False))
+    lidar = Lidar(scene, config.lidar, np.random.default_rng([config.seed, 1]))
+    session = SlamSession(slam, config.mapping, scene, lidar, scene.start_pose,
+                          np.random.default_rng([config.seed, 3]))
+    for step in steps:
+        session.observe(step)
+    return session
+
+
+def test_icp_and_model_build_graphs_of_the_same_structure():
+    """The same motion steps (same keyframes, same scans) into an icp and a model session:
+    one odometry factor per keyframe from its predecessor, at most one scan-matching
+    factor per keyframe from its last anchored keyframe, similar shares of both."""
+    from hydra import compose, initialize_config_dir
+    from omegaconf import OmegaConf
+
+    from explore_rl.cli import CONF_DIR
+    from explore_rl.robot import Robot
+    from explore_rl.scene.build import make_scene
+
+    with initialize_config_dir(CONF_DIR, version_base="1.3"):
+        config = OmegaConf.to_object(compose("config", overrides=["seed=0"]))
+    config.scene.start_index = config.tour.start_index
+    scene = make_scene(config.scene, config.robot, config.lidar)
+    robot = Robot(config.robot, scene.start_pose, scene.is_free, np.random.default_rng(0))
+    steps = list(robot.follow(np.array([[10.0, 4.5], [7.0, 4.5], [7.0, 3.0]])))
+    assert len(steps) > 40
+    sessions = {name: _replay(config, name, steps, scene) for name in ("icp", "model")}
+    icp, model = sessions["icp"], sessions["model"]
+    assert len(icp.keyframes) == len(model.keyframes) > 10
+    assert np.allclose(icp.true_poses(), model.true_poses())
+    for session in (icp, model):
+        edges = session.graph.edges
+        kinds = {kind for _, _, kind in edges}
+        assert kinds <= {"odometry", "scan_matching"} and "scan_matching" in kinds
+        odometry = [(i, j) for i, j, kind in edges if kind == "odometry"]
+        assert odometry == [(j - 1, j) for j in range(1, len(session.keyframes))]
+        ssm = [(i, j) for i, j, kind in edges if kind == "scan_matching"]
+        assert len({j for _, j in ssm}) == len(ssm)  # at most one per keyframe
+        for i, j in ssm:
+            match = session.keyframes[j].match
+            assert match.usable and i == j - match.span
+    ssm_fraction = {name: s.graph.factor_counts["scan_matching"] / (len(s.keyframes) - 1)
+                    for name, s in sessions.items()}
+    assert abs(ssm_fraction["icp"] - ssm_fraction["model"]) < 0.3, ssm_fraction
+
+
+# ---------------------------------------------------------------- bad calibration files
+
+
+def _write(tmp_path: Path, document: dict) -> Path:
+    path = tmp_path / "scan_matching.yaml"
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
+@pytest.mark.parametrize("change, key", [
+    (lambda d: d["degenerate"].pop("rate"), "degenerate.rate"),
+    (lambda d: d["degenerate"]["rate"].__setitem__(0, 1.5), "degenerate.rate[0]"),
+    (lambda d: d["conditions"]["weak1_turned"]["yaw_deg"].__setitem__("core_sigma", "0.1"),
+     "conditions.weak1_turned.yaw_deg.core_sigma"),
+    (lambda d: d["conditions"]["weak0_straight"]["translation"].__setitem__("tail_sigma", float("nan")),
+     "conditions.weak0_straight.translation.tail_sigma"),
+    (lambda d: d["weak_probabilities"][1].__setitem__(0, 0.9), "weak_probabilities[1]"),
+    (lambda d: d.__setitem__("surprise", 1), "surprise"),
+    (lambda d: d["conditions"].pop("weak2_straight"), "conditions.weak2_straight"),
+])
+def test_bad_scan_matching_file_names_file_and_key(tmp_path, change, key):
+    document = yaml.safe_load(SCAN_MATCHING_FILE.read_text())
+    change(document)
+    path = _write(tmp_path, document)
+    with pytest.raises(CalibrationError) as error:
+        load_scan_matching(path)
+    assert str(path) in str(error.value) and key in str(error.value), str(error.value)
+
+
+def test_missing_or_broken_calibration_files(tmp_path):
+    with pytest.raises(CalibrationError, match="not found"):
+        load_scan_matching(tmp_path / "nope.yaml")
+    (tmp_path / "broken.yaml").write_text("version: [1\n")
+    with pytest.raises(CalibrationError, match="not valid YAML"):
+        load_loop_closures(tmp_path / "broken.yaml")
+    (tmp_path / "loops.yaml").write_text(yaml.safe_dump({"version": 1, "r_lc": -1.0, "sources": {}}))
+    with pytest.raises(CalibrationError, match="r_lc"):
+        load_loop_closures(tmp_path / "loops.yaml")
+
+
+# ---------------------------------------------------------------- model loop closures
+
+
+class _FakeSession:
+    """Just what ModelLoopCloser reads: keyframes, graph, occupancy, scene grid."""
+
+    def __init__(self, start):
+        from types import SimpleNamespace
+
+        from explore_rl.grid import GridSpec
+        from explore_rl.slam.config import PoseGraphConfig
+        from explore_rl.slam.pose_graph import PoseGraph
+
+        self.graph = PoseGraph(PoseGraphConfig(), start)
+        grid = GridSpec((-2.0, -2.0), 0.1, (80, 80))
+        self.scene = SimpleNamespace(grid=grid)
+        self.occupancy = SimpleNamespace(known_occupied=np.zeros(grid.shape, bool))
+        self.keyframes = [SimpleNamespace(true_pose=np.asarray(start, float), travel=0.0,
+                                          error_points=np.zeros((4, 3)))]
+
+
+def test_model_loop_closer_closes_revisits_with_the_fitted_error():
+    from explore_rl.slam.config import LoopClosureConfig
+    from explore_rl.slam.frontend_model import ModelLoopCloser
+
+    calibration = load_loop_closures()
+    rng = np.random.default_rng(7)
+    # Two laps of a 3 m square, 0.5 m keyframes, odometry with a small yaw bias.
+    closures, errors = 0, []
+    for trial in range(8):
+        session = _FakeSession(np.zeros(3))
+        add = session.graph.add_loop_closure
+
+        def recording_add(i, j, relative, covariance, kind, session=session, add=add):
+            truth = se2_between(session.keyframes[i].true_pose, session.keyframes[j].true_pose)
+            errors.append(se2_between(truth, matrix_to_se2(relative)))
+            add(i, j, relative, covariance, kind)
+
+        session.graph.add_loop_closure = recording_add
+        closer = ModelLoopCloser(LoopClosureConfig(segments_enabled=False), calibration,
+                                 np.random.default_rng(trial))
+        true, odom = np.zeros(3), np.zeros(3)
+        for k in range(1, 49):
+            step = np.array([0.5, 0.0, np.pi / 2 if k % 6 == 0 else 0.0])
+            true = se2_compose(true, step)
+            odom_step = step + [0.0, 0.0, 0.004] + rng.normal(0, [0.01, 0.01, 0.001])
+            session.graph.add_keyframe(se2_to_matrix(odom_step), 3)
+            session.keyframes.append(type(session.keyframes[0])(
+                true_pose=true.copy(), travel=0.5 * k, error_points=np.zeros((4, 3))))
+            closures += closer.process(session)
+        for i, j, kind in session.graph.edges:
+            if kind == "pose_matching":
+                assert j - i >= closer.config.min_index_gap
+    assert closures >= 10
+    errors = np.array(errors)
+    source = calibration.sources["pose_matching"]
+    rms_t = np.sqrt(np.mean(np.sum(errors[:, :2] ** 2, axis=1)))
+    rms_r = np.rad2deg(np.sqrt(np.mean(errors[:, 2] ** 2)))
+    assert rms_t == pytest.approx(source.rms_translation, rel=0.5)
+    assert rms_r == pytest.approx(source.rms_rotation_deg, rel=0.5)
+    assert closer.closures["pose_matching"] == len(closer.accepted)
+    # No two accepted closures of one run are "worth"-close to each other.
+    for (a, b), (c, d) in zip(closer.accepted, closer.accepted[1:]):
+        assert abs(a - c) + abs(b - d) >= 1
