@@ -26,7 +26,19 @@ def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:
 
 
 def machine() -> dict:
-    return {"cpus": os.cpu_count(), "python": platform.python_version(), "machine": platform.machine()}
+    """What the figures were measured on, including how busy the machine was (1-min load)."""
+    return {"cpus": os.cpu_count(), "python": platform.python_version(), "machine": platform.machine(),
+            "load_average_1min": round(os.getloadavg()[0], 2)}
+
+
+def pin_to_one_core() -> int | None:
+    """Run this process on one CPU (targets quoted "on one core"); returns it, or None if
+    the platform cannot pin."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    core = max(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, {core})
+    return core
 
 
 def emit(result: dict) -> None:

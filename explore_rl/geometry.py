@@ -7,6 +7,8 @@ or stacks ``(N, 3)`` where noted.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -36,19 +38,28 @@ def se2_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
 
 
-def se2_to_matrix(pose: np.ndarray, z: float = 0.0) -> np.ndarray:
-    """4x4 transform of a planar pose lifted to height ``z``."""
+def se2_to_matrix(pose, z: float = 0.0) -> np.ndarray:
+    """4x4 transform of a planar pose (array or ``(x, y, yaw)`` tuple) lifted to height ``z``.
+
+    Scalar ``math`` on purpose: called per keyframe and per factor, where numpy's
+    per-call overhead would cost several times the arithmetic.
+    """
     x, y, yaw = (float(v) for v in pose)
-    c, s = np.cos(yaw), np.sin(yaw)
+    c, s = math.cos(yaw), math.sin(yaw)
     T = np.eye(4)
-    T[:2, :2] = [[c, -s], [s, c]]
-    T[:3, 3] = [x, y, z]
+    T[0, 0], T[0, 1], T[1, 0], T[1, 1] = c, -s, s, c
+    T[0, 3], T[1, 3], T[2, 3] = x, y, z
     return T
 
 
 def matrix_to_se2(T: np.ndarray) -> np.ndarray:
     """Planar ``[x, y, yaw]`` of a 4x4 transform (drops z, roll, pitch)."""
-    return np.array([T[0, 3], T[1, 3], np.arctan2(T[1, 0], T[0, 0])])
+    return np.array(matrix_to_se2_tuple(T))
+
+
+def matrix_to_se2_tuple(T: np.ndarray) -> tuple[float, float, float]:
+    """:func:`matrix_to_se2` as a tuple of floats (for the scalar hot paths)."""
+    return float(T[0, 3]), float(T[1, 3]), math.atan2(T[1, 0], T[0, 0])
 
 
 def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:

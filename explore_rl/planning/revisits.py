@@ -14,8 +14,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from explore_rl.grid import GridSpec
+from explore_rl.mapping.visibility import line_of_sight
 from explore_rl.planning.config import RevisitConfig
-from explore_rl.planning.virtual_map import line_of_sight
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from explore_rl.grid import GridSpec
+from explore_rl.mapping.visibility import line_of_sight
 from explore_rl.planning.config import VirtualMapConfig
 
 # ---------------------------------------------------------------------------- 2x2 algebra
@@ -141,79 +142,6 @@ def landmark_covariance_from_pose(
         h_x, -1, -2
     )
     return h_l_inv @ innovation @ np.swapaxes(h_l_inv, -1, -2)
-
-
-# ---------------------------------------------------------------------------- line of sight
-
-
-def line_of_sight(
-    start_xy: np.ndarray,
-    end_xy: np.ndarray,
-    blocked: np.ndarray,
-    grid: GridSpec,
-    step_fraction: float,
-    end_box: float = 0.0,
-    max_batch_samples: int = 2_000_000,
-) -> np.ndarray:
-    """Whether each segment ``start_xy[i] -> end_xy[i]`` (``(N, 2)``) is free of blocked cells.
-
-    Points are sampled every ``step_fraction * grid.resolution`` from the start (excluded)
-    towards the end and looked up in ``blocked`` (``grid.shape``; cells outside the grid do
-    not block). Samples inside the axis-aligned square of side ``end_box`` centred on the
-    end point are ignored (a virtual landmark's own cell may be a wall: seeing the wall is
-    seeing the landmark); with ``end_box = 0`` the samples stop at the end point.
-    Vectorised, in batches of at most ``max_batch_samples`` samples.
-    """
-    start_xy = np.asarray(start_xy, float).reshape(-1, 2)
-    end_xy = np.asarray(end_xy, float).reshape(-1, 2)
-    blocked = np.asarray(blocked, dtype=bool)
-    if blocked.shape != grid.shape:
-        raise ValueError(f"blocked mask {blocked.shape} != grid shape {grid.shape}")
-    clear = np.ones(len(start_xy), dtype=bool)
-    if len(start_xy) == 0:
-        return clear
-    delta = end_xy - start_xy
-    length = np.linalg.norm(delta, axis=1)
-    unit = delta / np.where(length > 0, length, 1.0)[:, None]
-    stop = _box_entry_distance(length, unit, 0.5 * end_box)
-    step = step_fraction * grid.resolution
-    n_samples = max(int(np.ceil(np.max(stop) / step)), 1)
-    padded = np.pad(blocked, 1).ravel()
-    batch = max(1, max_batch_samples // n_samples)
-    for lo in range(0, len(start_xy), batch):
-        sl = slice(lo, lo + batch)
-        clear[sl] = _segments_clear(start_xy[sl], unit[sl], stop[sl], padded, grid, step, n_samples)
-    return clear
-
-
-def _box_entry_distance(length: np.ndarray, unit: np.ndarray, half: float) -> np.ndarray:
-    """Distance along a ray aimed at a box centre (``length`` away) to the box's boundary."""
-    if half <= 0:
-        return length
-    steepest = np.maximum(np.max(np.abs(unit), axis=1), np.finfo(float).tiny)
-    return np.maximum(length - half / steepest, 0.0)
-
-
-def _segments_clear(
-    start_xy: np.ndarray,
-    unit: np.ndarray,
-    stop: np.ndarray,
-    padded_blocked: np.ndarray,
-    grid: GridSpec,
-    step: float,
-    n_samples: int,
-) -> np.ndarray:
-    """One batch of :func:`line_of_sight`; ``padded_blocked`` has a free 1-cell border."""
-    t = step * np.arange(1, n_samples + 1)
-    # Sample positions in cell units, shifted by the 1-cell border: any point outside the
-    # grid lands on the border (truncation equals floor for the non-negative values kept).
-    col = (start_xy[:, 0:1] - grid.origin[0]) / grid.resolution + 1.0
-    row = (start_xy[:, 1:2] - grid.origin[1]) / grid.resolution + 1.0
-    ix = np.clip((col + (t / grid.resolution) * unit[:, 0:1]).astype(np.int64), 0, grid.nx + 1)
-    iy = np.clip((row + (t / grid.resolution) * unit[:, 1:2]).astype(np.int64), 0, grid.ny + 1)
-    hit = padded_blocked[iy * (grid.nx + 2) + ix]
-    hit &= t[None, :] < stop[:, None]
-    return ~np.any(hit, axis=1)
 
 
 # ---------------------------------------------------------------------------- virtual map

@@ -97,8 +97,11 @@ class ScanMatch:
 
 
 @dataclass
-class _Linearisation:
-    """Point-to-plane Gauss-Newton system at one pose (sums over the used points)."""
+class Linearisation:
+    """Point-to-plane Gauss-Newton system at one pose (sums over the used points).
+
+    Public because the loop closer (:mod:`explore_rl.slam.loop_closure`) reuses it.
+    """
 
     n_inliers: int  # source points with a consistent map point within inlier_distance
     n_used: int  # of those, the ones on planar patches (they enter the system)
@@ -110,13 +113,15 @@ class _Linearisation:
     residual_var: float  # sum(w r^2) / (n_used - 6)
 
 
-class _LocalMap:
+class LocalMap:
     """KD-tree over recent anchored keyframe clouds with cached, oriented PCA normals.
 
     Every point remembers the sensor origin that saw it, and its normal is oriented
     towards that origin. A correspondence is only valid if the current sensor is on the
     side its normal faces: otherwise the scan sees the other face of a thin wall (e.g.
     through a door) -- which kiss-icp's point-to-point matching happily locks onto.
+
+    Public because the loop closer (:mod:`explore_rl.slam.loop_closure`) reuses it.
     """
 
     def __init__(self, points: np.ndarray, viewpoints: np.ndarray, config: ScanMatcherConfig):
@@ -272,7 +277,7 @@ class ScanMatcher:
         starts = [kiss_pose]
         if self._far_apart(guess, kiss_pose):
             starts.append(guess)
-        refined = [self._refine(local, source, start) for start in starts]
+        refined = [self.refine(local, source, start) for start in starts]
         pose, system = max(refined, key=lambda r: -1 if r[1] is None else r[1].n_structure)
         if system is None:
             return guess, self._degenerate(len(source))
@@ -285,7 +290,7 @@ class ScanMatcher:
         weak_basis[PLANAR] = eigenvectors[:, weak]
         match = ScanMatch(
             relative=np.eye(4),
-            covariance=self._covariance(system, eigenvalues, eigenvectors, weak),
+            covariance=self.covariance(system, eigenvalues, eigenvectors, weak),
             degenerate=False,
             weak_directions=int(weak.sum()),
             n_points=len(source),
@@ -295,7 +300,7 @@ class ScanMatcher:
         )
         return self._keep_prior_along(weak_basis, guess, pose), match
 
-    def _local_map(self) -> _LocalMap | None:
+    def _local_map(self) -> LocalMap | None:
         """The submap of recent anchored keyframes (None if too small for normals)."""
         if not self._submap:
             return None
@@ -303,7 +308,7 @@ class ScanMatcher:
         if len(points) < self.config.normal_neighbors:
             return None
         viewpoints = np.vstack([np.broadcast_to(o, p.shape) for p, o in self._submap])
-        return _LocalMap(points, viewpoints, self.config)
+        return LocalMap(points, viewpoints, self.config)
 
     def _far_apart(self, a: np.ndarray, b: np.ndarray) -> bool:
         """Whether two poses differ by more than the recheck thresholds."""
@@ -336,10 +341,13 @@ class ScanMatcher:
 
     # ----------------------------------------------- point-to-plane refinement
 
-    def _refine(
-        self, local: _LocalMap, source: np.ndarray, pose: np.ndarray
-    ) -> tuple[np.ndarray, _Linearisation | None]:
-        """Point-to-plane Gauss-Newton from ``pose``; the system at the result."""
+    def refine(
+        self, local: LocalMap, source: np.ndarray, pose: np.ndarray
+    ) -> tuple[np.ndarray, Linearisation | None]:
+        """Point-to-plane Gauss-Newton from ``pose``; the system at the result.
+
+        Public because the loop closer reuses it to refine its matches.
+        """
         system = self._linearise(local, source, pose)
         for _ in range(self.config.refine_iterations):
             if system is None:
@@ -349,8 +357,8 @@ class ScanMatcher:
         return pose, system
 
     def _linearise(
-        self, local: _LocalMap, source: np.ndarray, pose: np.ndarray
-    ) -> _Linearisation | None:
+        self, local: LocalMap, source: np.ndarray, pose: np.ndarray
+    ) -> Linearisation | None:
         """Point-to-plane system at ``pose`` (None if too few inliers)."""
         cfg = self.config
         registered = transform_points(pose, source)
@@ -374,7 +382,7 @@ class ScanMatcher:
         scale = cfg.kernel_ratio * cfg.fixed_threshold
         weights = 1.0 / (1.0 + (residuals / scale) ** 2)  # Cauchy
         steep = np.abs(normals[:, 2]) < STEEP_NORMAL_Z
-        return _Linearisation(
+        return Linearisation(
             n_inliers=n_inliers,
             n_used=n_used,
             n_structure=int(steep.sum()),
@@ -383,7 +391,7 @@ class ScanMatcher:
             residual_var=float(weights @ residuals**2 / max(n_used - 6, 1)),
         )
 
-    def _gauss_newton_step(self, system: _Linearisation, pose: np.ndarray) -> np.ndarray:
+    def _gauss_newton_step(self, system: Linearisation, pose: np.ndarray) -> np.ndarray:
         """One Gauss-Newton step restricted to the well-constrained directions."""
         eigenvalues, eigenvectors = np.linalg.eigh(system.information)
         strong = eigenvalues >= self.config.min_information
@@ -393,16 +401,18 @@ class ScanMatcher:
 
     # ----------------------------------------------------------- covariance
 
-    def _covariance(
+    def covariance(
         self,
-        system: _Linearisation,
+        system: Linearisation,
         eigenvalues: np.ndarray,
         eigenvectors: np.ndarray,
         weak: np.ndarray,
     ) -> np.ndarray:
         """6x6 covariance: planar block (yaw, x, y) = residual variance x inverse planar
         information, inflated along weak directions and floored; z, roll and pitch are
-        left to the odometry factors (``off_plane_sigma``)."""
+        left to the odometry factors (``off_plane_sigma``).
+
+        Public because the loop closer reuses it for its matches' covariances."""
         cfg = self.config
         safe = np.where(weak, 1.0, eigenvalues)
         variances = np.where(
@@ -430,7 +440,7 @@ class ScanMatcher:
         self,
         n_points: int,
         weak_directions: int = len(PLANAR),
-        system: _Linearisation | None = None,
+        system: Linearisation | None = None,
     ) -> ScanMatch:
         """A fall-back-to-odometry result (``usable`` is false)."""
         return ScanMatch(

@@ -77,7 +77,7 @@ import time
 
 import numpy as np
 
-from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix
+from explore_rl.geometry import matrix_to_se2_tuple, se2_between, se2_compose, se2_to_matrix
 from explore_rl.slam.calibration import (
     LoopClosureCalibration,
     ScanMatchingCalibration,
@@ -155,12 +155,12 @@ class ModelFrontend:
         if self.rng is None:
             self.rng = np.random.default_rng(seed_from_points(points))
         statistic = obstacle_points(points, self.mount_height, *self._band, stride=self.stride)
-        wheel = planar(wheel_delta)
+        wheel = matrix_to_se2_tuple(wheel_delta)
         if not self._true:  # the first keyframe starts the submap: no factor (as icp)
             self._true.append((0.0, 0.0, 0.0))
             self._wheel.append((0.0, 0.0, 0.0))
             return self._degenerate(wheel_delta, statistic, start)
-        self._true.append(compose(self._true[-1], planar(true_delta)))
+        self._true.append(compose(self._true[-1], matrix_to_se2_tuple(true_delta)))
         self._wheel.append(compose(self._wheel[-1], wheel))
 
         forced = self._since_anchor >= cal.max_span
@@ -217,10 +217,10 @@ class ModelFrontend:
         measured = compose(truth, (float(translation[0]), float(translation[1]), float(yaw_error)))
         previous = between(self._wheel[j - span], self._wheel[j - 1])
         return ScanMatch(
-            relative=matrix(between(previous, measured)),
+            relative=se2_to_matrix(between(previous, measured)),
             covariance=planar_covariance_6x6(planar_cov, cal.off_plane_sigma),
             degenerate=False, weak_directions=weak, n_points=statistic, ms=0.0, n_inliers=0,
-            span=span, span_relative=matrix(measured))
+            span=span, span_relative=se2_to_matrix(measured))
 
     def _degenerate(self, wheel_delta: np.ndarray, statistic: int, start: float) -> ScanMatch:
         return ScanMatch(relative=np.array(wheel_delta, dtype=float), covariance=self._degenerate_covariance.copy(),
@@ -230,11 +230,6 @@ class ModelFrontend:
 
 # Scalar SE(2) helpers: the vectorised ones in explore_rl.geometry cost ~40 us per call
 # on single poses, more than everything else the model does per keyframe.
-
-
-def planar(T: np.ndarray) -> tuple[float, float, float]:
-    """``(x, y, yaw)`` of a 4x4 planar transform."""
-    return float(T[0, 3]), float(T[1, 3]), math.atan2(T[1, 0], T[0, 0])
 
 
 def _wrap(angle: float) -> float:
@@ -254,14 +249,6 @@ def between(a, b) -> tuple[float, float, float]:
     return c * dx + s * dy, -s * dx + c * dy, _wrap(b[2] - a[2])
 
 
-def matrix(p) -> np.ndarray:
-    """4x4 transform of a planar pose."""
-    c, s = math.cos(p[2]), math.sin(p[2])
-    T = np.eye(4)
-    T[0, 0], T[0, 1], T[1, 0], T[1, 1], T[0, 3], T[1, 3] = c, -s, s, c, p[0], p[1]
-    return T
-
-
 def perpendicular(axis: np.ndarray) -> np.ndarray:
     return np.array([-axis[1], axis[0]])
 
@@ -270,7 +257,7 @@ def segments_clear(start_xy: np.ndarray, ends_xy: np.ndarray, blocked: np.ndarra
                    step_fraction: float = 0.5) -> np.ndarray:
     """Whether each segment ``start_xy -> ends_xy[k]`` misses every ``blocked`` cell
     (samples every ``step_fraction`` cells, start excluded; cells outside the grid do not
-    block). The same test as ``planning.virtual_map.line_of_sight`` for one start point,
+    block). The same test as ``mapping.visibility.line_of_sight`` for one start point,
     without padding the whole grid per call."""
     delta = ends_xy - start_xy
     length = np.hypot(delta[:, 0], delta[:, 1])

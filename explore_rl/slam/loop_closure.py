@@ -59,12 +59,13 @@ from kiss_icp.voxelization import voxel_down_sample
 from scipy.stats import chi2
 
 from explore_rl.geometry import matrix_to_se2, se2_between, se2_compose, se2_to_matrix, transform_points
+from explore_rl.mapping.visibility import line_of_sight
 from explore_rl.slam import segments as seg
 from explore_rl.slam.config import LoopClosureConfig, ScanMatcherConfig
 
-# Private helpers of the scan matcher, shared on purpose (one implementation of the
-# normals, the point-to-plane system, its refinement and its covariance).
-from explore_rl.slam.frontend import PLANAR, ScanMatcher, _Linearisation, _LocalMap
+# Shared with the scan matcher on purpose (one implementation of the normals, the
+# point-to-plane system, its refinement and its covariance).
+from explore_rl.slam.frontend import PLANAR, Linearisation, LocalMap, ScanMatcher
 
 if TYPE_CHECKING:
     from explore_rl.slam.session import SlamSession
@@ -196,7 +197,7 @@ class Solution:
     relative: np.ndarray  # planar [x, y, yaw] of T_target^-1 T_source
     n_source: int
     score: int  # source points with a target point within inlier_distance (after ICP)
-    system: _Linearisation | None = None  # point-to-plane system after refinement
+    system: Linearisation | None = None  # point-to-plane system after refinement
     weak: np.ndarray | None = None  # set by Verifier.judge: weak planar directions (mask)
     eigen: tuple[np.ndarray, np.ndarray] | None = None  # planar information eigenpairs
 
@@ -234,11 +235,11 @@ class Target:
         points = np.vstack(clouds) if clouds else np.zeros((0, 3))
         self.n_points = len(points)
         self.voxels = VoxelHashMap(config.icp_voxel, 1e3, config.icp_points_per_voxel)
-        self.local: _LocalMap | None = None
+        self.local: LocalMap | None = None
         if len(points) >= matcher_config.normal_neighbors:
             viewpoints = np.vstack([np.broadcast_to(o, c.shape) for c, o in zip(clouds, origins)])
             self.voxels.add_points(points)
-            self.local = _LocalMap(points, viewpoints, matcher_config)
+            self.local = LocalMap(points, viewpoints, matcher_config)
 
 
 class Verifier:
@@ -292,7 +293,7 @@ class Verifier:
         solutions.sort(key=lambda s: -s.score)
         if solutions:
             best = solutions[0]
-            refined, best.system = self.matcher._refine(target.local, source, se2_to_matrix(best.relative))
+            refined, best.system = self.matcher.refine(target.local, source, se2_to_matrix(best.relative))
             best.relative = planar(refined)
         return solutions
 
@@ -350,7 +351,7 @@ class Verifier:
         """6x6 factor covariance: the scan matcher's (residual variance x inverse planar
         information, ``weak_sigma`` along weak directions) plus the loop-factor floors."""
         values, vectors = solution.eigen
-        return self.matcher._covariance(solution.system, values, vectors, solution.weak)
+        return self.matcher.covariance(solution.system, values, vectors, solution.weak)
 
     def _same(self, a: np.ndarray, b: np.ndarray) -> bool:
         t, r = planar_error(a, b)
@@ -476,8 +477,6 @@ class IcpLoopCloser:
     @staticmethod
     def _line_of_sight(session: SlamSession, here: np.ndarray, there: np.ndarray) -> np.ndarray:
         """No known-occupied cell between ``here`` and each of ``there`` (2D map)."""
-        from explore_rl.planning.virtual_map import line_of_sight
-
         there = np.atleast_2d(there)
         return line_of_sight(np.broadcast_to(here[:2], (len(there), 2)), there[:, :2],
                              session.occupancy.known_occupied, session.scene.grid, 0.5)

@@ -90,8 +90,9 @@ def odometry_covariance(config: PoseGraphConfig, motion_steps: int) -> np.ndarra
 
 def _gaussian(covariance: np.ndarray) -> gtsam.noiseModel.Base:
     covariance = np.asarray(covariance, dtype=float)
-    if np.count_nonzero(covariance - np.diag(np.diag(covariance))) == 0:
-        return gtsam.noiseModel.Diagonal.Variances(np.diag(covariance).copy())
+    variances = covariance.diagonal()
+    if np.count_nonzero(covariance) == np.count_nonzero(variances):  # diagonal
+        return gtsam.noiseModel.Diagonal.Variances(variances.copy())
     return gtsam.noiseModel.Gaussian.Covariance(covariance)
 
 
@@ -132,6 +133,9 @@ class PoseGraph:
         self.version = 0
         self._num_poses = 0
         self._cache: dict[tuple, np.ndarray] = {}
+        # Odometry noise models by motion-step count: a handful of distinct ones per run,
+        # and building one is a third of the Python cost of a keyframe.
+        self._odometry_noise: dict[bytes, gtsam.noiseModel.Base] = {}
 
     # ------------------------------------------------------------------ updates
 
@@ -193,7 +197,12 @@ class PoseGraph:
         self._bookkeep(batch)
 
     def _make_factor(self, record: FactorRecord) -> gtsam.NonlinearFactor:
-        noise = _gaussian(record.covariance)
+        if record.kind == ODOMETRY:
+            noise = self._odometry_noise.get(record.covariance.tobytes())
+            if noise is None:
+                noise = self._odometry_noise[record.covariance.tobytes()] = _gaussian(record.covariance)
+        else:
+            noise = _gaussian(record.covariance)
         pose = gtsam.Pose3(record.measurement)
         if record.j is None:
             return gtsam.PriorFactorPose3(key(record.i), pose, noise)
@@ -321,6 +330,7 @@ class PoseGraph:
         other.version = self.version
         other._num_poses = self._num_poses
         other._cache = dict(self._cache)
+        other._odometry_noise = self._odometry_noise
         return other
 
     def __getstate__(self) -> dict:

@@ -1,5 +1,5 @@
-"""Virtual map: covariance intersection, range-bearing Jacobians, landmark covariances,
-line of sight and the log-det utility, against independent brute-force references."""
+"""Virtual map: covariance intersection, range-bearing Jacobians, landmark covariances
+and the log-det utility, against independent brute-force references."""
 
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ import yaml
 from scipy.optimize import minimize_scalar
 
 from explore_rl.grid import GridSpec
+from explore_rl.mapping.visibility import line_of_sight
 from explore_rl.planning.config import PlanningConfig, VirtualMapConfig
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     covariance_intersection,
     landmark_covariance_from_pose,
-    line_of_sight,
     measurement_noise,
     range_bearing,
     range_bearing_jacobians,
@@ -156,7 +156,7 @@ def test_min_range_clamp_prevents_blow_up():
         np.testing.assert_allclose(cov, at_clamp, rtol=1e-9)
 
 
-# ---------------------------------------------------------------------------- line of sight
+# ---------------------------------------------------------------------------- walled grid
 
 
 def wall_grid() -> tuple[GridSpec, np.ndarray]:
@@ -165,20 +165,6 @@ def wall_grid() -> tuple[GridSpec, np.ndarray]:
     blocked = np.zeros(grid.shape, dtype=bool)
     blocked[:, 40:42] = True
     return grid, blocked
-
-
-def test_line_of_sight_cases():
-    grid, blocked = wall_grid()
-    start = np.array([[3.0, 5.0], [3.0, 5.0], [3.0, 5.0], [-2.0, 5.0]])
-    end = np.array([[5.0, 5.5], [3.9, 1.0], [4.1, 5.0], [-1.0, 5.0]])
-    clear = line_of_sight(start, end, blocked, grid, 0.5)
-    # across the wall; beside it; ending inside it; entirely outside the grid
-    assert clear.tolist() == [False, True, False, True]
-    # ignoring the end's own 0.5 m cell: the wall cell itself is seen
-    assert line_of_sight(start[2:3], np.array([[4.25, 5.25]]), blocked, grid, 0.5, 0.5)[0]
-    # tiny batches give the same answer
-    small = line_of_sight(start, end, blocked, grid, 0.5, max_batch_samples=1)
-    assert small.tolist() == clear.tolist()
 
 
 # ----------------------------------------------------------------------------- virtual map

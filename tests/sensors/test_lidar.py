@@ -43,13 +43,14 @@ def test_floor_hit_distance_matches_elevation(office):
     assert len(floor_hits) > 0.5 * lowest.sum()
 
 
-def test_no_point_comes_from_the_robot():
+@pytest.mark.parametrize("tile_size", [0.0, 3.0])
+def test_no_point_comes_from_the_robot(tile_size):
     """A robot with a big chassis right under the sensor: no return comes from it."""
     import mujoco
 
     robot = RobotConfig(body_size=[1.6, 1.6, 0.35])
     scene = make_scene(SceneConfig(name="office", num_objects=0), robot, LidarConfig())
-    lidar = Lidar(scene, LidarConfig(range_noise=0.0), np.random.default_rng(0))
+    lidar = Lidar(scene, LidarConfig(range_noise=0.0, tile_size=tile_size), np.random.default_rng(0))
     pose = scene.start_pose
     scan = lidar.scan(pose)
     horizontal = np.hypot(scan.points[:, 0], scan.points[:, 1])
@@ -93,3 +94,48 @@ def test_points_land_on_obstacles_in_world_frame(office):
     above_floor = world[:, 2] > 1e-6
     distance = office.geometry.signed_distance(world[above_floor, :2])
     assert np.abs(distance).max() < 1e-6
+
+
+def test_tiles_give_the_same_ranges_as_the_full_model(any_scene):
+    """StaticTiles is an acceleration structure only: every ray, every scene, same range,
+    also right at tile borders and corners."""
+    full = Lidar(any_scene, LidarConfig(tile_size=0.0), np.random.default_rng(0))
+    tiled = Lidar(any_scene, LidarConfig(tile_size=3.0), np.random.default_rng(0))
+    rng = np.random.default_rng(2)
+    cells = np.argwhere(any_scene.truth.traversable)
+    xy = any_scene.grid.cell_to_world(cells[rng.choice(len(cells), 12, replace=False)])
+    on_borders = np.round(xy / 3.0) * 3.0 + rng.choice([-1e-9, 1e-9], size=xy.shape)
+    for x, y in np.vstack([xy, on_borders]):
+        pose = np.array([x, y, rng.uniform(-np.pi, np.pi)])
+        expected, got = full.cast(pose), tiled.cast(pose)
+        assert np.array_equal(got > 0, expected > 0)
+        assert np.abs(got - expected).max() < 1e-12
+    assert 0 < len(tiled.tiles) <= 24
+    largest_tile = max(tiled.tiles.model_at(pose).__getitem__(0).ngeom for pose in xy)
+    assert largest_tile < any_scene.ngeom - 2  # fewer geoms than the scene (minus the robot's)
+
+
+def test_tile_keeps_every_geom_within_reach(office):
+    """geoms_near is conservative: any static geom whose surface comes within max_range of
+    a point of the tile (checked on a dense sample of the tile) is in the tile's model."""
+    tiles = Lidar(office, LidarConfig(), np.random.default_rng(0)).tiles
+    tile = tiles.tile_of(office.start_pose)
+    kept = set(tiles.geoms_near(tile).tolist())
+    u = (np.arange(13) + 0.5) / 13 * tiles.tile_size
+    low = np.asarray(tile) * tiles.tile_size
+    sample = np.stack(np.meshgrid(low[0] + u, low[1] + u), -1).reshape(-1, 2)
+    for g in np.flatnonzero(office.model.geom_bodyid == 0):
+        center = office.data.geom_xpos[g, :2]
+        if np.hypot(*(sample - center).T).min() <= LidarConfig().max_range:
+            assert g in kept
+
+
+def test_lidar_pickles_and_casts_the_same(office):
+    import pickle
+
+    lidar = Lidar(office, LidarConfig(), np.random.default_rng(0))
+    pose = office.start_pose
+    before = lidar.cast(pose)
+    clone = pickle.loads(pickle.dumps(lidar))
+    assert np.array_equal(clone.cast(pose), before)
+    assert np.array_equal(clone.scan(pose).points, lidar.scan(pose).points)
