@@ -47,6 +47,10 @@ class PoseGraphConfig:
     # iSAM2 parameters.
     relinearize_threshold: float = 0.01
     relinearize_skip: int = 1
+    # Check only the part of the Bayes tree an update touches for relinearisation (gtsam's
+    # enablePartialRelinearizationCheck). On 8 office tours (slam=model) iSAM2 updates got
+    # 15-25 % cheaper; mean ATE 0.0446 vs 0.0439 m, map error equal to 1 mm.
+    partial_relinearization_check: bool = True
 
 
 @dataclass

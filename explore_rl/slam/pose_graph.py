@@ -126,6 +126,7 @@ class PoseGraph:
         params = gtsam.ISAM2Params()
         params.setRelinearizeThreshold(self.config.relinearize_threshold)
         params.relinearizeSkip = self.config.relinearize_skip
+        params.enablePartialRelinearizationCheck = self.config.partial_relinearization_check
         self._isam = gtsam.ISAM2(params)
         self._log: list[_Batch] = []
         self._edges: list[tuple[int, int, str]] = []
