@@ -326,8 +326,8 @@ class ModelLoopCloser:
         (within a map cell of the current estimates: the maps are rebuilt when any moves
         further) and the newest estimate. Avoids a full iSAM2 estimate per keyframe (the
         maps stage computes it anyway, after the loop closures)."""
-        mapped = getattr(session, "_map_poses", None)
-        if mapped is None or len(mapped) != j:
+        mapped = session.map_poses
+        if len(mapped) != j:
             return session.graph.poses_se2()
         newest = session.graph.pose(j)
         return np.vstack([mapped, [[newest[0, 3], newest[1, 3], math.atan2(newest[1, 0], newest[0, 0])]]])

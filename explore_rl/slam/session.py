@@ -228,6 +228,12 @@ class SlamSession:
         self.voxels.insert(transform_points(self.world_from_sensor(estimates[-1:])[0], keyframe.cloud))
         self._map_poses = np.vstack([self._map_poses, estimates[-1:]])
 
+    @property
+    def map_poses(self) -> np.ndarray:
+        """``(N, 3)`` planar estimates the maps were last built at: within a map cell of the
+        current estimates (the maps are rebuilt when any moves further)."""
+        return self._map_poses
+
     def rebuild_maps(self, estimates: np.ndarray | None = None) -> None:
         estimates = self.graph.poses_se2() if estimates is None else estimates
         self.occupancy.rebuild([k.scan2d for k in self.keyframes], estimates)

@@ -252,7 +252,8 @@ def test_missing_or_broken_calibration_files(tmp_path):
 
 
 class _FakeSession:
-    """Just what ModelLoopCloser reads: keyframes, graph, occupancy, scene grid."""
+    """Just what ModelLoopCloser reads: keyframes, graph, occupancy, scene grid, map poses
+    (none yet: the closer then asks the graph for its estimates)."""
 
     def __init__(self, start):
         from types import SimpleNamespace
@@ -267,6 +268,7 @@ class _FakeSession:
         self.occupancy = SimpleNamespace(known_occupied=np.zeros(grid.shape, bool))
         self.keyframes = [SimpleNamespace(true_pose=np.asarray(start, float), travel=0.0,
                                           error_points=np.zeros((4, 3)))]
+        self.map_poses = np.zeros((0, 3))
 
 
 def test_model_loop_closer_closes_revisits_with_the_fitted_error():
