@@ -14,22 +14,17 @@ import time
 from pathlib import Path
 
 import numpy as np
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine, parse_args  # noqa: E402
 
-from explore_rl.cli import CONF_DIR  # noqa: E402
+from explore_rl.config import load_config  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
 
 
 def explore(policy: str, max_decisions: int, extra: list[str]) -> dict:
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=["scene=street", f"policy={policy}", "seed=0",
-                                           "explore.progress_bar=false",
-                                           f"explore.max_decisions={max_decisions}", *extra])
-    explorer = Explorer(OmegaConf.to_object(cfg))
+    explorer = Explorer(load_config(["scene=street", f"policy={policy}", "seed=0", "explore.progress_bar=false",
+                                     f"explore.max_decisions={max_decisions}", *extra]))
     start = time.perf_counter()
     result = explorer.run()
     wall = time.perf_counter() - start

@@ -26,13 +26,11 @@ from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from hydra import compose, initialize_config_dir  # noqa: E402
-from omegaconf import OmegaConf  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine, parse_args  # noqa: E402
 
-from explore_rl.cli import CONF_DIR  # noqa: E402
+from explore_rl.config import load_config  # noqa: E402
 from explore_rl.mapping.occupancy import collapse_scan  # noqa: E402
 from explore_rl.robot import Robot  # noqa: E402
 from explore_rl.scene.build import make_scene  # noqa: E402
@@ -41,12 +39,6 @@ from explore_rl.slam.session import SlamSession  # noqa: E402
 from explore_rl.tour import plan_tour  # noqa: E402
 
 SLAM_STAGES = ("registration", "isam2", "loops")
-
-
-def load_config(seed: int, overrides: list[str]):
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=[f"seed={seed}", *overrides])
-    return OmegaConf.to_object(cfg)
 
 
 class TimedSession:
@@ -91,7 +83,7 @@ def scores(session: SlamSession, seconds: float) -> dict:
 
 
 def run_seed(seed: int, goals_limit: int | None, models_per_seed: int) -> dict:
-    config = load_config(seed, ["slam=icp"])
+    config = load_config([f"seed={seed}", "slam=icp"])
     config.scene.start_index = config.tour.start_index
     scene = make_scene(config.scene, config.robot, config.lidar)
     goals = config.tour.goals[:goals_limit] if goals_limit else config.tour.goals
@@ -122,7 +114,7 @@ def lidar_breakdown(seed: int = 0, n: int = 40) -> dict:
     import mujoco
     from kiss_icp.voxelization import voxel_down_sample
 
-    config = load_config(seed, ["slam=model"])
+    config = load_config([f"seed={seed}", "slam=model"])
     scene = make_scene(config.scene, config.robot, config.lidar)
     lidar = Lidar(scene, config.lidar, np.random.default_rng(0))
     rng = np.random.default_rng(1)

@@ -29,13 +29,11 @@ from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from hydra import compose, initialize_config_dir  # noqa: E402
-from omegaconf import OmegaConf  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine, parse_args  # noqa: E402
 
-from explore_rl.cli import CONF_DIR  # noqa: E402
+from explore_rl.config import load_config  # noqa: E402
 from explore_rl.robot import MotionStep, Robot  # noqa: E402
 from explore_rl.scene.build import make_scene  # noqa: E402
 from explore_rl.sensors.lidar import Lidar  # noqa: E402
@@ -45,12 +43,6 @@ from explore_rl.tour import TourRun, drive_with_slam, plan_tour  # noqa: E402
 
 FALSE_TRANSLATION = 0.3  # m
 FALSE_ROTATION_DEG = 3.0
-
-
-def load_config(seed: int, overrides: list[str]):
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=[f"seed={seed}", *overrides])
-    return OmegaConf.to_object(cfg)
 
 
 class RecordingSession:
@@ -123,12 +115,12 @@ def closure_stats(session: SlamSession) -> dict:
 
 
 def run_seed(seed: int, goals_limit: int | None, overrides: list[str]) -> dict:
-    config = load_config(seed, overrides)
+    config = load_config([f"seed={seed}", *overrides])
     start = time.perf_counter()
     run, steps = drive_tour(config, goals_limit)
     wall = time.perf_counter() - start
     session = run.session
-    no_loops = replay(load_config(seed, [*overrides, "slam.loop_closure.enabled=false"]), run.scene, steps)
+    no_loops = replay(load_config([f"seed={seed}", *overrides, "slam.loop_closure.enabled=false"]), run.scene, steps)
     assert np.array_equal(no_loops.true_poses(), session.true_poses()), "replay diverged"
     slam = session.metrics()
     odometry = session.metrics(session.odometry_poses())

@@ -36,17 +36,12 @@ POLICIES = ["nearest", "em", "random"]
 
 def explore_once(scene: str, policy: str, seed: int, frontend: str, extra: tuple[str, ...]) -> dict:
     """One exploration; returns its per-decision table and final figures."""
-    from hydra import compose, initialize_config_dir
-    from omegaconf import OmegaConf
-
-    from explore_rl.cli import CONF_DIR
+    from explore_rl.config import load_config
     from explore_rl.runner import Explorer
 
     overrides = [f"scene={scene}", f"policy={policy}", f"seed={seed}", f"slam={frontend}",
                  "explore.progress_bar=false", *extra]
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        config = OmegaConf.to_object(compose("config", overrides=overrides))
-    explorer = Explorer(config)
+    explorer = Explorer(load_config(overrides))
     result = explorer.run()
     rows = result.table()
     last = rows[-1] if rows else {}

@@ -23,18 +23,13 @@ from common import emit, machine  # noqa: E402
 
 
 def explore_once(policy: str, alpha: float, start: int, frontend: str, max_decisions: int) -> dict:
-    from hydra import compose, initialize_config_dir
-    from omegaconf import OmegaConf
-
-    from explore_rl.cli import CONF_DIR
+    from explore_rl.config import load_config
     from explore_rl.runner import Explorer
 
     overrides = ["scene=office", f"scene.start_index={start}", f"policy={policy}", f"slam={frontend}",
                  f"planning.reward.alpha={alpha}", "explore.progress_bar=false",
                  f"explore.max_decisions={max_decisions}", "seed=0"]
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        config = OmegaConf.to_object(compose("config", overrides=overrides))
-    explorer = Explorer(config)
+    explorer = Explorer(load_config(overrides))
     result = explorer.run()
     last = result.records[-1] if result.records else None
     return {"policy": policy, "alpha": alpha, "start": start, "status": result.status.value,

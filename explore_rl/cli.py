@@ -15,10 +15,9 @@ import hydra
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from explore_rl.config import Config, register_configs, validate
+from explore_rl.config import CONF_DIR, Config, register_configs, validate
 
 T = TypeVar("T")
-CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("explore_rl")
 
 register_configs()

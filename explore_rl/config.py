@@ -8,7 +8,8 @@ live next to the code they configure; this module only assembles them.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
+from pathlib import Path
+from typing import Optional, Sequence
 
 from hydra.core.config_store import ConfigStore
 
@@ -21,6 +22,8 @@ from explore_rl.scene.config import SceneConfig
 from explore_rl.sensors.lidar import LidarConfig
 from explore_rl.slam.config import SlamConfig
 from explore_rl.tour import TourConfig
+
+CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 
 
 @dataclass
@@ -48,6 +51,21 @@ class Config:
 
 def register_configs() -> None:
     ConfigStore.instance().store(name="base_config", node=Config)
+
+
+def load_config(overrides: Sequence[str] = ()) -> Config:
+    """The typed, validated config for command-line style ``overrides`` (e.g.
+    ``["scene=street", "slam=model", "seed=3"]``), composed from ``conf/`` exactly as the
+    command-line tools do: for scripts, benchmarks, notebooks and tests."""
+    from hydra import compose, initialize_config_dir
+    from omegaconf import OmegaConf
+
+    register_configs()
+    with initialize_config_dir(CONF_DIR, version_base="1.3"):
+        composed = compose("config", overrides=list(overrides))
+    config: Config = OmegaConf.to_object(composed)  # type: ignore[assignment]
+    validate(config)
+    return config
 
 
 def validate(config: Config) -> None:

@@ -35,13 +35,11 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from explore_rl.cli import CONF_DIR  # noqa: E402
+from explore_rl.config import load_config  # noqa: E402
 from explore_rl.slam.loop_closure import (  # noqa: E402
     POSE_MATCHING, SOURCES, LoopClosureAttempt, write_attempts_csv)
 
@@ -102,14 +100,8 @@ HEADER = """\
 """
 
 
-def load_config(seed: int, overrides: list[str]):
-    with initialize_config_dir(str(CONF_DIR), version_base="1.3"):
-        cfg = compose("config", overrides=[f"seed={seed}", *overrides])
-    return OmegaConf.to_object(cfg)
-
-
 def calibration_config(seed: int, scene_overrides: list[str]):
-    config = load_config(seed, ["slam=icp", *scene_overrides])
+    config = load_config([f"seed={seed}", "slam=icp", *scene_overrides])
     config.slam.loop_closure = dataclasses.replace(config.slam.loop_closure, **CALIBRATION_OVERRIDES)
     return config
 

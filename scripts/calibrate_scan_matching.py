@@ -37,14 +37,12 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
 from scipy.stats import chi2
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from explore_rl.cli import CONF_DIR  # noqa: E402
+from explore_rl.config import load_config  # noqa: E402
 from explore_rl.geometry import matrix_to_se2, se2_between  # noqa: E402
 from explore_rl.slam import session as session_module  # noqa: E402
 from explore_rl.slam.calibration import SCAN_MATCHING_FILE, condition_name, load_scan_matching  # noqa: E402
@@ -167,10 +165,8 @@ def recording(sink: list[Record], run: str, mount_height: float):
         session_module.make_frontend = original
 
 
-def load_config(overrides: list[str]):
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        cfg = compose("config", overrides=["slam=icp", "slam.loop_closure.enabled=false", *overrides])
-    return OmegaConf.to_object(cfg)
+def icp_without_loops(overrides: list[str]):
+    return load_config(["slam=icp", "slam.loop_closure.enabled=false", *overrides])
 
 
 def collect(tour_seeds: list[int], explore_seeds: list[int], scenes: list[str], max_decisions: int,
@@ -182,7 +178,7 @@ def collect(tour_seeds: list[int], explore_seeds: list[int], scenes: list[str], 
     runs = []
     config = None
     for seed in tour_seeds:
-        config = load_config([f"seed={seed}", *overrides])
+        config = icp_without_loops([f"seed={seed}", *overrides])
         start = time.perf_counter()
         with recording(records, f"tour/office/{seed}", config.lidar.mount_height):
             run = run_tour(config)
@@ -190,7 +186,7 @@ def collect(tour_seeds: list[int], explore_seeds: list[int], scenes: list[str], 
         print(runs[-1], flush=True)
     for scene in scenes:
         for seed in explore_seeds:
-            config = load_config([f"scene={scene}", f"seed={seed}", "explore.progress_bar=false",
+            config = icp_without_loops([f"scene={scene}", f"seed={seed}", "explore.progress_bar=false",
                                   f"explore.max_decisions={max_decisions}", *overrides])
             start = time.perf_counter()
             with recording(records, f"explore/{scene}/{seed}", config.lidar.mount_height):

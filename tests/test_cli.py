@@ -80,3 +80,12 @@ def test_explore_writes_csv_figure_and_animation(tmp_path):
     assert rows[0].startswith("decision,travel_m,explored") and len(rows) >= 2
     assert (tmp_path / f"{stem}.png").stat().st_size > 10_000
     assert (tmp_path / f"{stem}.gif").stat().st_size > 10_000
+
+
+def test_load_config_composes_validates_and_names_bad_values():
+    from explore_rl.config import load_config
+
+    config = load_config(["scene=street", "slam=model", "seed=3"])
+    assert (config.scene.name, config.slam.frontend, config.seed) == ("street", "model", 3)
+    with pytest.raises(ValueError, match="lidar.tile_size"):
+        load_config(["lidar.tile_size=-1"])

@@ -174,15 +174,11 @@ def test_icp_and_model_build_graphs_of_the_same_structure():
     """The same motion steps (same keyframes, same scans) into an icp and a model session:
     one odometry factor per keyframe from its predecessor, at most one scan-matching
     factor per keyframe from its last anchored keyframe, similar shares of both."""
-    from hydra import compose, initialize_config_dir
-    from omegaconf import OmegaConf
-
-    from explore_rl.cli import CONF_DIR
+    from explore_rl.config import load_config
     from explore_rl.robot import Robot
     from explore_rl.scene.build import make_scene
 
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        config = OmegaConf.to_object(compose("config", overrides=["seed=0"]))
+    config = load_config(["seed=0"])
     config.scene.start_index = config.tour.start_index
     scene = make_scene(config.scene, config.robot, config.lidar)
     robot = Robot(config.robot, scene.start_pose, scene.is_free, np.random.default_rng(0))

@@ -2,10 +2,8 @@
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_dir
-from omegaconf import OmegaConf
 
-from explore_rl.cli import CONF_DIR
+from explore_rl.config import load_config
 from explore_rl.robot import Robot
 from explore_rl.scene.build import make_scene
 from explore_rl.sensors.lidar import Lidar, Scan
@@ -13,8 +11,7 @@ from explore_rl.slam.session import SlamSession, map_error
 
 
 def make_config(*overrides):
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        return OmegaConf.to_object(compose("config", overrides=["scene=office", "scene.start_index=1", *overrides]))
+    return load_config(["scene=office", "scene.start_index=1", *overrides])
 
 
 def drive(config, lidar_factory=Lidar, goals=((11.5, 10.0), (11.5, 11.0))):
