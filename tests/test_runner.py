@@ -1,11 +1,14 @@
 """The exploration loop: clean endings, safe paths, and nearest frontier on the street."""
 
+import logging
+
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
 from explore_rl.cli import CONF_DIR
+from explore_rl.robot import PathStatus
 from explore_rl.runner import Explorer, Status
 
 
@@ -74,3 +77,60 @@ def test_nearest_frontier_explores_the_street_within_budget():
     result = Explorer(config).run()
     assert result.status is Status.EXPLORED
     assert result.records[-1].explored >= 0.85
+
+
+@pytest.fixture
+def nook(tmp_path):
+    """An 8 m x 3 m room with a pillar; the robot starts 1 mm from the west wall, facing it."""
+    path = tmp_path / "nook.yaml"
+    path.write_text(
+        "version: 1\nname: nook\nsize: [8.0, 3.0]\n"
+        "boxes:\n  - {center: [4.0, 2.0], size: [0.4, 2.0, 1.0]}\n"
+        "starts:\n  - [0.301, 1.5, 3.14159]\n"
+    )
+    return path
+
+
+def test_robot_touching_a_wall_escapes_instead_of_skipping_every_frontier(nook, caplog):
+    """Before the escape, the noisy turns 1 mm from the wall were all blocked: 4 of these 6
+    seeds skipped every frontier as "blocked at once" and ended at ~42 % explored."""
+    for seed in range(6):
+        config = load_config("scene=file", f"scene.path={nook}", "slam=model", f"seed={seed}",
+                             "explore.progress_bar=false", "explore.max_decisions=10")
+        caplog.clear()
+        with caplog.at_level(logging.INFO, logger="explore_rl.runner"):
+            result = Explorer(config).run()
+        messages = [r.getMessage() for r in caplog.records]
+        assert result.status is Status.EXPLORED, (seed, messages)
+        assert not any("blocked at once" in m for m in messages), (seed, messages)
+        assert any("escape done" in m and "[0.3 1.5]" in m for m in messages), (seed, messages)
+
+
+def test_decisions_start_clear_of_obstacles(nook):
+    config = load_config("scene=file", f"scene.path={nook}", "slam=model", "seed=2",
+                         "explore.progress_bar=false", "explore.max_decisions=3")
+    explorer = Explorer(config)
+    observe = explorer.observe
+
+    def checked_observe():
+        assert explorer.robot.footprint_clearance() >= config.explore.escape.clearance
+        return observe()
+
+    explorer.observe = checked_observe
+    explorer.run()
+    assert explorer.result.records
+
+
+def test_a_start_inside_the_inflated_obstacles_keeps_its_snapped_cell_as_first_waypoint(nook):
+    config = load_config("scene=file", f"scene.path={nook}", "slam=model", "explore.progress_bar=false")
+    explorer = Explorer(config)
+    state = explorer.observe()
+    grid = explorer.scene.grid
+    start = state.distance_field.start_cell
+    assert not state.traversable[tuple(grid.world_to_cell(state.pose[:2]))]
+    for candidate in state.candidates:
+        assert np.allclose(candidate.path[0], state.pose[:2])
+        assert np.allclose(candidate.path[1], grid.cell_to_world(start))
+    # the robot drives out through that cell once backed off the wall
+    explorer.escape()
+    assert explorer.drive(explorer.observe().candidates[0]) is PathStatus.REACHED
