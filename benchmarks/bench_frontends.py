@@ -3,7 +3,8 @@
 Each seed drives the scripted office tour once with the icp front end (loop closures
 on, steering by the SLAM belief) and records every motion step; the same steps are then
 replayed into a `model` session (same keyframes, same scans: the LiDAR and map-error
-generators are re-seeded identically). Per front end: wall time per keyframe of the
+generators are re-seeded identically). Every run is in a fresh process (see
+``in_fresh_process``). Per front end: wall time per keyframe of the
 whole session (LiDAR, SLAM, maps), of its SLAM stage (registration + iSAM2 + loop
 closures), ATE, map error and loop closures. Targets (issue 5): the model SLAM stage at
 least 20x faster than icp's; the model's mean ATE, map error and loop-closure count within
@@ -20,8 +21,10 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import multiprocessing  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
+from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -82,10 +85,15 @@ def scores(session: SlamSession, seconds: float) -> dict:
     }
 
 
-def run_seed(seed: int, goals_limit: int | None, models_per_seed: int) -> dict:
-    config = load_config([f"seed={seed}", "slam=icp"])
+def tour_config(seed: int, frontend: str):
+    config = load_config([f"seed={seed}", f"slam={frontend}"])
     config.scene.start_index = config.tour.start_index
-    scene = make_scene(config.scene, config.robot, config.lidar)
+    return config, make_scene(config.scene, config.robot, config.lidar)
+
+
+def drive_icp(seed: int, goals_limit: int | None) -> dict:
+    """The tour under icp, steering by its belief; returns its scores and every motion step."""
+    config, scene = tour_config(seed, "icp")
     goals = config.tour.goals[:goals_limit] if goals_limit else config.tour.goals
     paths = replace(config.mapping.paths, inflation_margin=config.tour.inflation_margin)
     waypoints = plan_tour(scene, scene.start_pose[:2], goals, config.robot.radius, paths)
@@ -94,19 +102,37 @@ def run_seed(seed: int, goals_limit: int | None, models_per_seed: int) -> dict:
     for step in robot.follow(waypoints):
         if icp.observe(step):
             robot.correct_belief(icp.belief(robot.odom_pose))
-    result = {"seed": seed, "status": robot.status.value, "travel_m": round(robot.travelled, 2),
-              "icp": scores(icp.session, icp.seconds), "model": []}
-    for draw in range(models_per_seed):
-        model = new_session(config, scene, "model")
-        if draw:  # other draws of the model's noise on the same trajectory
-            model.frontend.rng = np.random.default_rng([seed, 100 + draw])
-            if hasattr(model.loop_closer, "rng"):
-                model.loop_closer.rng = np.random.default_rng([seed, 200 + draw])
-        start = time.perf_counter()
-        for step in icp.steps:
-            model.observe(step)
-        result["model"].append(scores(model, time.perf_counter() - start))
-    return result
+    return {"status": robot.status.value, "travel_m": round(robot.travelled, 2),
+            "scores": scores(icp.session, icp.seconds), "steps": icp.steps}
+
+
+def replay_model(seed: int, steps: list, draw: int) -> dict:
+    """The same motion steps into a `model` session; ``draw > 0``: other draws of its noise."""
+    config, scene = tour_config(seed, "icp")
+    model = new_session(config, scene, "model")
+    if draw:
+        model.frontend.rng = np.random.default_rng([seed, 100 + draw])
+        if hasattr(model.loop_closer, "rng"):
+            model.loop_closer.rng = np.random.default_rng([seed, 200 + draw])
+    start = time.perf_counter()
+    for step in steps:
+        model.observe(step)
+    return scores(model, time.perf_counter() - start)
+
+
+def in_fresh_process(fn, *args):
+    """``fn(*args)`` in a new interpreter, so every measurement starts from the same process
+    state: a model replay in the process that had just run icp was 10-25 % slower (what
+    kiss-icp leaves behind: heap, thread pools), which is not the model's cost."""
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return pool.submit(fn, *args).result()
+
+
+def run_seed(seed: int, goals_limit: int | None, models_per_seed: int) -> dict:
+    icp = in_fresh_process(drive_icp, seed, goals_limit)
+    models = [in_fresh_process(replay_model, seed, icp["steps"], draw) for draw in range(models_per_seed)]
+    return {"seed": seed, "status": icp["status"], "travel_m": icp["travel_m"], "icp": icp["scores"],
+            "model": models}
 
 
 def lidar_breakdown(seed: int = 0, n: int = 40) -> dict:

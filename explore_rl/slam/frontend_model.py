@@ -87,6 +87,7 @@ from explore_rl.slam.calibration import (
 )
 from explore_rl.slam.config import LoopClosureConfig, SlamConfig
 from explore_rl.slam.frontend import ScanMatch
+from explore_rl.slam.loop_closure import closest_separated
 
 POSE_MATCHING = "pose_matching"
 SEGMENT_MATCHING = "segment_matching"
@@ -350,12 +351,10 @@ class ModelLoopCloser:
         ok = (distance <= radius) & (travel[j] - travel[:last] >= cfg.min_travel_gap)
         if not ok.any():
             return [], []
-        picked: list[int] = []
-        for i in np.flatnonzero(ok)[np.argsort(distance[ok], kind="stable")].tolist():
-            if all(abs(i - p) >= cfg.candidate_separation for p in picked):
-                picked.append(i)
-                if len(picked) >= 3 * cfg.max_candidates:  # enough to survive line of sight
-                    break
+        indices = np.flatnonzero(ok)
+        # 3x max_candidates: enough to survive the line-of-sight test
+        picked = closest_separated(indices, distance[indices], cfg.candidate_separation,
+                                   limit=3 * cfg.max_candidates)
         kept = [i for i in picked if keep is None or keep(i)]
         if not cfg.line_of_sight:
             return picked, kept[: cfg.max_candidates]

@@ -162,6 +162,25 @@ def relative_covariance(joint: np.ndarray, relative: np.ndarray) -> np.ndarray:
     return J @ joint @ J.T
 
 
+def closest_separated(indices: np.ndarray, distance: np.ndarray, separation: int,
+                      limit: int | None = None) -> list[int]:
+    """Keyframe ``indices`` closest first (``distance`` of each, stable order), leaving out
+    any within ``separation`` indices of one already taken: one candidate per run of
+    neighbouring keyframes. Stops after ``limit`` (None: all)."""
+    taken: list[int] = []
+    if not len(indices):
+        return taken
+    near_taken = np.zeros(int(np.max(indices)) + 1, dtype=bool)
+    for i in np.asarray(indices)[np.argsort(distance, kind="stable")].tolist():
+        if near_taken[i]:
+            continue
+        taken.append(i)
+        near_taken[max(i - separation + 1, 0): i + separation] = True
+        if limit is not None and len(taken) >= limit:
+            break
+    return taken
+
+
 def planar(T: np.ndarray) -> np.ndarray:
     """``[x, y, yaw]`` of a 4x4 transform."""
     return matrix_to_se2(T)
@@ -465,10 +484,8 @@ class IcpLoopCloser:
         distance = np.hypot(*(poses[:, :2] - poses[j, :2]).T)
         ok = (distance <= cfg.search_radius) & (travel[j] - travel >= cfg.min_travel_gap)
         ok &= np.arange(len(poses)) <= j - cfg.min_index_gap
-        picked: list[int] = []
-        for i in np.flatnonzero(ok)[np.argsort(distance[ok], kind="stable")]:
-            if all(abs(int(i) - p) >= cfg.candidate_separation for p in picked):
-                picked.append(int(i))
+        indices = np.flatnonzero(ok)
+        picked = closest_separated(indices, distance[indices], cfg.candidate_separation)
         if cfg.line_of_sight and picked:
             clear = self._line_of_sight(session, poses[j], poses[picked])
             picked = [i for i, c in zip(picked, clear) if c]

@@ -15,6 +15,7 @@ the graph picklable (``__setstate__`` replays it, reproducing the same iSAM2 sta
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import gtsam
@@ -96,17 +97,23 @@ def _gaussian(covariance: np.ndarray) -> gtsam.noiseModel.Base:
     return gtsam.noiseModel.Gaussian.Covariance(covariance)
 
 
-def _robust(base: gtsam.noiseModel.Base, kernel: str, width: float) -> gtsam.noiseModel.Base:
+@lru_cache(maxsize=None)
+def _m_estimator(kernel: str, width: float) -> gtsam.noiseModel.mEstimator.Base:
+    """The robust kernel (immutable, so one per kind and width is shared by all factors)."""
     estimators = {
         "cauchy": gtsam.noiseModel.mEstimator.Cauchy,
         "huber": gtsam.noiseModel.mEstimator.Huber,
     }
-    if kernel == "none":
-        return base
     if kernel not in estimators:
         choices = ", ".join(sorted(estimators) + ["none"])
         raise ValueError(f"unknown robust kernel {kernel!r}; use one of {choices}")
-    return gtsam.noiseModel.Robust.Create(estimators[kernel].Create(width), base)
+    return estimators[kernel].Create(width)
+
+
+def _robust(base: gtsam.noiseModel.Base, kernel: str, width: float) -> gtsam.noiseModel.Base:
+    if kernel == "none":
+        return base
+    return gtsam.noiseModel.Robust.Create(_m_estimator(kernel, width), base)
 
 
 class PoseGraph:
@@ -243,7 +250,10 @@ class PoseGraph:
         return list(self._edges)
 
     def pose(self, i: int) -> np.ndarray:
-        """Current 4x4 estimate of keyframe ``i``."""
+        """Current 4x4 estimate of keyframe ``i`` (from the cached estimates if there are)."""
+        cached = self._cache.get(("poses",))
+        if cached is not None:
+            return cached[i].copy()
         return self._isam.calculateEstimatePose3(key(i)).matrix()
 
     def poses_matrix(self) -> np.ndarray:

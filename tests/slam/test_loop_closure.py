@@ -315,3 +315,21 @@ def test_relative_covariance_matches_sampling():
     empirical = np.cov(np.array(samples).T)
     predicted = lc.relative_covariance(joint, rel)
     assert np.abs(empirical - predicted).max() < 0.05 * np.abs(predicted).max()
+
+
+def test_closest_separated_matches_the_pairwise_rule():
+    """One candidate per run of neighbouring keyframes, closest first: the same picks as
+    checking every pick so far (the rule both loop closers use)."""
+    from explore_rl.slam.loop_closure import closest_separated
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        indices = np.sort(rng.choice(200, size=rng.integers(0, 60), replace=False))
+        distance = rng.uniform(0, 3, len(indices)).round(1)  # ties: stable order decides
+        separation = int(rng.integers(1, 12))
+        expected: list[int] = []
+        for i in indices[np.argsort(distance, kind="stable")].tolist():
+            if all(abs(i - p) >= separation for p in expected):
+                expected.append(i)
+        assert closest_separated(indices, distance, separation) == expected
+        assert closest_separated(indices, distance, separation, limit=3) == expected[:3]
