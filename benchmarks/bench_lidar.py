@@ -104,9 +104,9 @@ def bench_scene(name: str, config: SceneConfig, poses_count: int, loop_count: in
     lidar = Lidar(scene, LidarConfig(), np.random.default_rng(0))
     poses = sample_poses(scene, poses_count)
     scan_s = [time_call(lambda p=p: lidar.scan(p), repeats=5) for p in poses]
-    multiray_s = [time_call(lambda p=p: lidar._cast_raw(p), repeats=5) for p in poses]
+    multiray_s = [time_call(lambda p=p: lidar.cast_raw(p), repeats=5) for p in poses]
     full_model = Lidar(scene, replace(LidarConfig(), tile_size=0.0), np.random.default_rng(0))
-    full_model_s = [time_call(lambda p=p: full_model._cast_raw(p), repeats=5) for p in poses]
+    full_model_s = [time_call(lambda p=p: full_model.cast_raw(p), repeats=5) for p in poses]
     tile_geoms = [lidar.tiles.model_at(p)[0].ngeom for p in poses]
     analytic_s, diffs, mismatches = [], [], 0
     for pose in poses:

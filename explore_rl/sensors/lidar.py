@@ -65,7 +65,7 @@ class StaticTiles:
     with callgrind). The model of a tile holds only the scene's static geoms whose
     bounding sphere comes within ``reach`` (the LiDAR's range) of some point of the tile,
     in 2D, which is conservative in 3D: a geom left out cannot be hit from a sensor over
-    that tile. Same geoms, same poses, so the same ranges (``tests/sensors``); ~12 instead
+    that tile. Same geoms, same poses, so the same ranges (``tests/sensors``); ~10 instead
     of 41 geoms in the office. Tiles are built when first needed (a few ms each) and are
     not pickled. The scene is static: rebuild the tiles if its geoms move.
     """
@@ -166,8 +166,9 @@ class Lidar:
     def sensor_position(self, pose: np.ndarray) -> np.ndarray:
         return np.array([pose[0], pose[1], self.config.mount_height], dtype=np.float64)
 
-    def _cast_raw(self, pose: np.ndarray) -> np.ndarray:
-        """``mj_multiRay`` from the sensor at planar ``pose``; distances in ``self._dist``."""
+    def cast_raw(self, pose: np.ndarray) -> np.ndarray:
+        """Raw ``mj_multiRay`` distances (-1: no hit, may exceed the range) from the sensor at
+        planar ``pose``, in a buffer reused by the next cast (copy to keep them)."""
         np.multiply(self._directions_xy, np.exp(1j * float(pose[2])), out=self._world_xy)
         if self.tiles is None:
             model, data = self.scene.model, self.scene.data
@@ -185,13 +186,13 @@ class Lidar:
 
     def cast(self, pose: np.ndarray) -> np.ndarray:
         """Noise-free ranges (N,) from the sensor on the robot at planar ``pose``; -1 = none."""
-        dist = self._cast_raw(pose)
+        dist = self.cast_raw(pose)
         return np.where(self._returns(dist), dist, -1.0)
 
     def scan(self, pose: np.ndarray) -> Scan:
         """A noisy scan from the robot at its *true* planar ``pose``."""
         self.scene.set_robot_pose(pose)
-        dist = self._cast_raw(pose)
+        dist = self.cast_raw(pose)
         hit = self._returns(dist)
         hit_index = np.flatnonzero(hit)
         noisy = dist.take(hit_index)
