@@ -203,7 +203,9 @@ class Explorer:
         clearance_before, travel_before = robot.footprint_clearance(), robot.travelled
         self.move(robot.escape(config))
         escaped = robot.status is PathStatus.REACHED
-        log.warning(
+        # routine next to walls (paths have no inflation margin): info; a failed escape: warning
+        log.log(
+            logging.INFO if escaped else logging.WARNING,
             "robot %.3f m from an obstacle at %s (belief %s): escape %s after %.2f m at %s "
             "(belief %s), clearance %.3f m", clearance_before, true_before, belief_before,
             "done" if escaped else "failed", robot.travelled - travel_before,
