@@ -38,7 +38,7 @@ class RevisitConfig:
 class RewardConfig:
     """Raw reward U0 - U' - alpha * path_length and its normalisation (paper Alg. 1)."""
 
-    alpha: float = 1.0  # utility per metre of travel; chosen by benchmarks/sweep_alpha.py (office, 5 starts)
+    alpha: float = 10.0  # utility per metre of travel; see benchmarks/RESULTS.md (EM alpha sweep)
     tie_tolerance: float = 1e-9  # relative spread below which all raw rewards count equal
 
 
