@@ -9,6 +9,7 @@ raw per-decision CSVs. The last stdout line is JSON with the table and the order
 * nearest frontier covers the most ground per metre; random covers the least.
 
     python benchmarks/study_ordering.py [--quick] [--seeds 5] [--frontend icp] [--workers 2] [--resume]
+                                        [--override planning.reward.alpha=1 ...] [--out DIR]
 
 Every finished run is appended to ``results/ordering_runs.jsonl`` as it completes;
 ``--resume`` continues an interrupted study and ``--summarise-only`` rebuilds the table
@@ -145,12 +146,14 @@ def main() -> None:
     parser.add_argument("--frontend", default="icp", choices=["icp", "model"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=str(RESULTS))
+    parser.add_argument("--override", nargs="*", default=[],
+                        help="Hydra overrides for every run, e.g. planning.reward.alpha=1")
     parser.add_argument("--resume", action="store_true", help="keep runs already in ordering_runs.jsonl")
     parser.add_argument("--summarise-only", action="store_true", help="no new runs: table/plots from the log")
     args = parser.parse_args()
-    scenes, seeds, extra = args.scenes, range(args.seeds), ()
+    scenes, seeds, extra = args.scenes, range(args.seeds), tuple(args.override)
     if args.quick:
-        scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=6",)
+        scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=6", *args.override)
         args.out = tempfile.mkdtemp(prefix="ordering_quick_")  # never touch the committed results
     args.resume = args.resume or args.summarise_only
     # seed-major order: an interrupted study still holds whole (scene, policy) sets per seed
