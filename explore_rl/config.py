@@ -91,6 +91,8 @@ def validate(config: Config) -> None:
         raise ValueError(f"explore.target_explored must be in (0, 1], got {config.explore.target_explored}")
     if config.lidar.channels < 1:
         raise ValueError(f"lidar.channels must be >= 1, got {config.lidar.channels}")
+    if config.explore.escape.directions < 2:
+        raise ValueError(f"explore.escape.directions must be >= 2, got {config.explore.escape.directions}")
     if config.lidar.tile_size < 0:
         raise ValueError(f"lidar.tile_size must be >= 0 (0 = cast on the full scene model), "
                          f"got {config.lidar.tile_size}")

@@ -19,7 +19,6 @@ import logging
 import time
 from dataclasses import asdict, dataclass, field
 from enum import Enum
-from functools import partial
 
 import numpy as np
 
@@ -110,11 +109,6 @@ class ExplorationResult:
         return [asdict(r) for r in self.records]
 
 
-def footprint_clearance(scene: Scene, xy: np.ndarray) -> np.ndarray:
-    """Clearance (m) of the robot's footprint disc at ``xy`` to the scene's solids (< 0: collision)."""
-    return scene.geometry.signed_distance(xy) - scene.robot_body.radius
-
-
 class Explorer:
     """Scene + robot + LiDAR + SLAM + policy for one seeded run (see the module docstring)."""
 
@@ -124,10 +118,8 @@ class Explorer:
         self.scene = scene or make_scene(config.scene, config.robot, config.lidar)
         start = self.scene.start_pose
         self.lidar = Lidar(self.scene, config.lidar, np.random.default_rng([config.seed, 1]))
-        if config.explore.escape.directions < 2:
-            raise ValueError(f"explore.escape.directions must be >= 2, got {config.explore.escape.directions}")
         self.robot = Robot(config.robot, start, self.scene.is_free, np.random.default_rng([config.seed, 2]),
-                           clearance=partial(footprint_clearance, self.scene))
+                           clearance=self.scene.footprint_clearance)
         self.session = SlamSession(config.slam, config.mapping, self.scene, self.lidar, start,
                                    np.random.default_rng([config.seed, 3]))
         self.policy = policy or make_policy(config.policy, np.random.default_rng([config.seed, 4]),

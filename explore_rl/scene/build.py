@@ -167,10 +167,14 @@ class Scene:
         self.data.mocap_quat[0] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         mujoco.mj_kinematics(self.model, self.data)
 
+    def footprint_clearance(self, xy: np.ndarray, radius: float | None = None) -> np.ndarray:
+        """Gap (m) between a footprint disc at ``xy`` (…, 2) and the nearest solid; < 0: collision."""
+        r = self.robot_body.radius if radius is None else radius
+        return self.geometry.signed_distance(xy) - r
+
     def is_free(self, xy: np.ndarray, radius: float | None = None) -> np.ndarray:
         """Whether a footprint disc at ``xy`` (…, 2) stays clear of every solid."""
-        r = self.robot_body.radius if radius is None else radius
-        return self.geometry.signed_distance(xy) >= r
+        return self.footprint_clearance(xy, radius) >= 0.0
 
 
 def make_scene(scene: SceneConfig, robot, lidar) -> Scene:
