@@ -44,12 +44,10 @@ def se2_to_matrix(pose, z: float = 0.0) -> np.ndarray:
     Scalar ``math`` on purpose: called per keyframe and per factor, where numpy's
     per-call overhead would cost several times the arithmetic.
     """
-    x, y, yaw = (float(v) for v in pose)
+    x, y, yaw = pose
     c, s = math.cos(yaw), math.sin(yaw)
-    T = np.eye(4)
-    T[0, 0], T[0, 1], T[1, 0], T[1, 1] = c, -s, s, c
-    T[0, 3], T[1, 3], T[2, 3] = x, y, z
-    return T
+    return np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]],
+                    dtype=float)
 
 
 def matrix_to_se2(T: np.ndarray) -> np.ndarray:

@@ -133,6 +133,15 @@ class OccupancyGrid:
     def known_occupied(self) -> np.ndarray:
         return self.log_odds > self.config.occupied_threshold
 
+    def occupied_at(self, cells: np.ndarray) -> np.ndarray:
+        """Whether each cell ``[..., (iy, ix)]`` is known occupied (outside the grid: no);
+        reads only those cells, for callers that test a few."""
+        iy, ix = cells[..., 0], cells[..., 1]
+        inside = (iy >= 0) & (iy < self.log_odds.shape[0]) & (ix >= 0) & (ix < self.log_odds.shape[1])
+        occupied = np.zeros(cells.shape[:-1], dtype=bool)
+        occupied[inside] = self.log_odds[iy[inside], ix[inside]] > self.config.occupied_threshold
+        return occupied
+
     @property
     def unknown(self) -> np.ndarray:
         return ~(self.known_free | self.known_occupied)

@@ -18,6 +18,7 @@ naming the file and the key path (``conditions.weak1_turned.yaw_deg.core_sigma``
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from dataclasses import dataclass, field
@@ -64,6 +65,13 @@ class Mixture:
         tail = rng.random(size) < self.tail_fraction
         return rng.standard_normal(size) * np.where(tail, self.tail_sigma, self.core_sigma)
 
+    def sample_pair(self, rng: np.random.Generator) -> tuple[float, float]:
+        """Two draws as floats: the same values as ``sample(rng, 2)`` without arrays."""
+        tail_a, tail_b = rng.random() < self.tail_fraction, rng.random() < self.tail_fraction
+        a, b = rng.standard_normal(), rng.standard_normal()
+        return (a * (self.tail_sigma if tail_a else self.core_sigma),
+                b * (self.tail_sigma if tail_b else self.core_sigma))
+
 
 @dataclass(frozen=True)
 class Histogram:
@@ -85,6 +93,17 @@ def draw_index(probabilities, rng: np.random.Generator) -> int:
         if u < total:
             return k
     return len(probabilities) - 1
+
+
+def interpolate(x: float, xs: tuple[float, ...], ys: tuple[float, ...]) -> float:
+    """``np.interp`` for one point (clamped at the ends); scalar, for the model's hot path."""
+    k = bisect.bisect_right(xs, x)
+    if k == 0:
+        return float(ys[0])
+    if k == len(xs):
+        return float(ys[-1])
+    t = (x - xs[k - 1]) / (xs[k] - xs[k - 1])
+    return float(ys[k - 1] + t * (ys[k] - ys[k - 1]))
 
 
 @dataclass(frozen=True)
@@ -119,8 +138,8 @@ class Condition:
         if not self.sigma_levels:
             return self.reported_sigma_yaw_deg, self.reported_sigma_translation
         u = rng.random()
-        return (float(np.interp(u, self.sigma_levels, self.sigma_yaw_deg_quantiles)),
-                float(np.interp(u, self.sigma_levels, self.sigma_translation_quantiles)))
+        return (interpolate(u, self.sigma_levels, self.sigma_yaw_deg_quantiles),
+                interpolate(u, self.sigma_levels, self.sigma_translation_quantiles))
 
 
 @dataclass(frozen=True)
@@ -174,7 +193,7 @@ class LoopSource:
         rates = self.rate_per_attempt if per == "attempt" else self.rate_per_revisit
         if distance < self.bin_edges[0] or distance >= self.bin_edges[-1]:
             return 0.0
-        k = min(int(np.searchsorted(self.bin_edges, distance, side="right") - 1), len(rates) - 1)
+        k = min(bisect.bisect_right(self.bin_edges, distance) - 1, len(rates) - 1)
         if rates[k] is not None:
             return float(rates[k])
         if self.logistic_intercept is None or self.logistic_slope is None:

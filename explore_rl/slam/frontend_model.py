@@ -109,13 +109,17 @@ def seed_from_points(points: np.ndarray) -> int:
                           "little")
 
 
-def planar_covariance_6x6(planar: np.ndarray, off_plane_sigma: float) -> np.ndarray:
-    """6x6 Pose3 covariance: ``planar`` (yaw, x, y) at rows/columns ``PLANAR`` (2, 3, 4:
-    contiguous, so a slice)."""
-    covariance = np.zeros((6, 6))
-    covariance[0, 0] = covariance[1, 1] = covariance[5, 5] = off_plane_sigma**2
-    covariance[2:5, 2:5] = planar
-    return covariance
+def covariance_6x6(yaw_var: float, xx: float, xy: float, yy: float, off_plane_var: float) -> np.ndarray:
+    """6x6 Pose3 covariance (rx, ry, rz, tx, ty, tz) of a planar measurement: yaw variance
+    ``yaw_var``, translation covariance ``[[xx, xy], [xy, yy]]``, ``off_plane_var`` on
+    roll, pitch and z."""
+    o = off_plane_var
+    return np.array([[o, 0.0, 0.0, 0.0, 0.0, 0.0],
+                     [0.0, o, 0.0, 0.0, 0.0, 0.0],
+                     [0.0, 0.0, yaw_var, 0.0, 0.0, 0.0],
+                     [0.0, 0.0, 0.0, xx, xy, 0.0],
+                     [0.0, 0.0, 0.0, xy, yy, 0.0],
+                     [0.0, 0.0, 0.0, 0.0, 0.0, o]])
 
 
 
@@ -179,13 +183,15 @@ class ModelFrontend:
         return match
 
     def _measure(self, weak: int, turned: bool, statistic: int) -> ScanMatch:
+        # Scalar math throughout: this runs per keyframe, where numpy's per-call overhead
+        # (on cold caches, after the LiDAR stage) would cost several times the arithmetic.
         cal, rng = self.calibration, self.rng
         condition = cal.condition(weak, turned)
         span = self._since_anchor + 1
         j = len(self._true) - 1
         truth = between(self._true[j - span], self._true[j])
         wheel_span = between(self._wheel[j - span], self._wheel[j])
-        wheel_error = np.array(between(truth, wheel_span))  # [x, y, yaw]
+        wheel_error = between(truth, wheel_span)  # (x, y, yaw)
         sigma_yaw_deg, sigma_t = condition.draw_sigmas(rng)
         sigma_yaw = math.radians(sigma_yaw_deg)
         # The yaw error of a fully constrained match scales with its reported sigma, as in
@@ -198,28 +204,31 @@ class ModelFrontend:
             yaw_error = sigma_yaw * condition.yaw_z.sample(rng)
         else:
             yaw_error = math.radians(condition.yaw_deg.sample(rng))
-        weak_var = cal.weak_sigma**2
-        planar_cov = np.zeros((3, 3))
+        yaw_var, t_var, weak_var = sigma_yaw**2, sigma_t**2, cal.weak_sigma**2
         if weak == 0:
-            translation = condition.translation.sample(rng, 2)
-            planar_cov[0, 0] = sigma_yaw**2
-            planar_cov[1:, 1:] = np.eye(2) * sigma_t**2
+            error_x, error_y = condition.translation.sample_pair(rng)
+            xx, xy, yy = t_var, 0.0, t_var
         else:
+            # u: the weak translation direction (keeps the odometry error), v: the
+            # constrained one (error from the fitted mixture); weak 2 swaps the roles of
+            # the drawn axis and its perpendicular.
             angle = math.radians(condition.weak_angle_deg.sample(rng))
-            axis = np.array([math.cos(angle), math.sin(angle) * (1.0 if rng.random() < 0.5 else -1.0)])
-            u, v = (axis, perpendicular(axis)) if weak == 1 else (perpendicular(axis), axis)
-            translation = (wheel_error[:2] @ u) * u + condition.translation.sample(rng) * v
-            planar_cov[1:, 1:] = sigma_t**2 * np.outer(v, v) + weak_var * np.outer(u, u)
-            if weak == 1:
-                planar_cov[0, 0] = sigma_yaw**2
-            else:  # the yaw is weak too: it keeps the prior
-                yaw_error = wheel_error[2]
-                planar_cov[0, 0] = weak_var
-        measured = compose(truth, (float(translation[0]), float(translation[1]), float(yaw_error)))
+            axis = (math.cos(angle), math.sin(angle) * (1.0 if rng.random() < 0.5 else -1.0))
+            normal = (-axis[1], axis[0])
+            (ux, uy), (vx, vy) = (axis, normal) if weak == 1 else (normal, axis)
+            along_u = wheel_error[0] * ux + wheel_error[1] * uy
+            along_v = condition.translation.sample(rng)
+            error_x, error_y = along_u * ux + along_v * vx, along_u * uy + along_v * vy
+            xx = t_var * vx * vx + weak_var * ux * ux
+            xy = t_var * vx * vy + weak_var * ux * uy
+            yy = t_var * vy * vy + weak_var * uy * uy
+            if weak == 2:  # the yaw is weak too: it keeps the prior
+                yaw_error, yaw_var = wheel_error[2], weak_var
+        measured = compose(truth, (error_x, error_y, yaw_error))
         previous = between(self._wheel[j - span], self._wheel[j - 1])
         return ScanMatch(
             relative=se2_to_matrix(between(previous, measured)),
-            covariance=planar_covariance_6x6(planar_cov, cal.off_plane_sigma),
+            covariance=covariance_6x6(yaw_var, xx, xy, yy, cal.off_plane_sigma**2),
             degenerate=False, weak_directions=weak, n_points=statistic, ms=0.0, n_inliers=0,
             span=span, span_relative=se2_to_matrix(measured))
 
@@ -250,29 +259,20 @@ def between(a, b) -> tuple[float, float, float]:
     return c * dx + s * dy, -s * dx + c * dy, _wrap(b[2] - a[2])
 
 
-def perpendicular(axis: np.ndarray) -> np.ndarray:
-    return np.array([-axis[1], axis[0]])
-
-
-def segments_clear(start_xy: np.ndarray, ends_xy: np.ndarray, blocked: np.ndarray, grid,
-                   step_fraction: float = 0.5) -> np.ndarray:
-    """Whether each segment ``start_xy -> ends_xy[k]`` misses every ``blocked`` cell
-    (samples every ``step_fraction`` cells, start excluded; cells outside the grid do not
-    block). The same test as ``mapping.visibility.line_of_sight`` for one start point,
-    without padding the whole grid per call."""
-    delta = ends_xy - start_xy
+def segments_clear(start_xy, ends_xy: np.ndarray, occupancy, step_fraction: float = 0.5) -> np.ndarray:
+    """Whether each segment ``start_xy -> ends_xy[k]`` misses every known-occupied cell of
+    ``occupancy`` (an :class:`~explore_rl.mapping.occupancy.OccupancyGrid`; samples every
+    ``step_fraction`` cells, start excluded; cells outside the grid do not block). The same
+    test as ``mapping.visibility.line_of_sight`` for one start point, reading only the
+    sampled cells."""
+    delta = ends_xy - np.asarray(start_xy)
     length = np.hypot(delta[:, 0], delta[:, 1])
-    step = step_fraction * grid.resolution
+    step = step_fraction * occupancy.grid.resolution
     n = max(int(np.ceil(length.max() / step)), 1) if len(length) else 1
     t = np.minimum(np.arange(1, n + 1)[None, :] * step, length[:, None])  # (K, n)
     unit = delta / np.where(length > 0, length, 1.0)[:, None]
-    xy = start_xy + t[..., None] * unit[:, None, :]
-    cells = grid.world_to_cell(xy)
-    inside = (cells[..., 0] >= 0) & (cells[..., 0] < blocked.shape[0]) & \
-        (cells[..., 1] >= 0) & (cells[..., 1] < blocked.shape[1])
-    hit = np.zeros(cells.shape[:2], dtype=bool)
-    hit[inside] = blocked[cells[..., 0][inside], cells[..., 1][inside]]
-    return ~hit.any(axis=1)
+    xy = np.asarray(start_xy) + t[..., None] * unit[:, None, :]
+    return ~occupancy.occupied_at(occupancy.grid.world_to_cell(xy)).any(axis=1)
 
 
 class ModelLoopCloser:
@@ -312,83 +312,86 @@ class ModelLoopCloser:
         if self.rng is None:
             self.rng = np.random.default_rng(seed_from_points(session.keyframes[0].error_points))
         j = len(session.keyframes) - 1
-        poses = self._estimates(session, j)
+        older, newest = self._estimates(session, j)
         self._travel.extend(k.travel for k in session.keyframes[len(self._travel):])
-        travel = np.asarray(self._travel)
-        added = self._pose_matching(session, poses, travel, j)
+        added = self._pose_matching(session, older, newest, j)
         if (cfg.segments_enabled and added < cfg.max_closures_per_keyframe
                 and SEGMENT_MATCHING in self.calibration.sources):
-            added += self._segment_matching(session, poses, travel, j)
+            added += self._segment_matching(session, older, newest, j)
         return added
 
     @staticmethod
-    def _estimates(session, j: int) -> np.ndarray:
-        """Planar estimates of keyframes 0..j: the poses the maps were last built at
-        (within a map cell of the current estimates: the maps are rebuilt when any moves
-        further) and the newest estimate. Avoids a full iSAM2 estimate per keyframe (the
-        maps stage computes it anyway, after the loop closures)."""
+    def _estimates(session, j: int) -> tuple[np.ndarray, tuple[float, float, float]]:
+        """Planar estimates of keyframes 0..j-1 (``(j, 3)``) and of the newest one ``j``.
+        The older ones are the poses the maps were last built at (within a map cell of the
+        current estimates: the maps are rebuilt when any moves further). Avoids a full
+        iSAM2 estimate per keyframe (the maps stage computes it anyway, after the loop
+        closures)."""
         mapped = session.map_poses
         if len(mapped) != j:
-            return session.graph.poses_se2()
-        newest = session.graph.pose(j)
-        return np.vstack([mapped, [[newest[0, 3], newest[1, 3], math.atan2(newest[1, 0], newest[0, 0])]]])
+            poses = session.graph.poses_se2()
+            return poses[:j], tuple(poses[j])
+        return mapped, matrix_to_se2_tuple(session.graph.pose(j))
 
     # ------------------------------------------------------------------ candidates
 
-    def candidates(self, session, poses: np.ndarray, travel: np.ndarray, j: int, radius: float,
+    def candidates(self, session, older: np.ndarray, newest: tuple, j: int, radius: float,
                    keep=None) -> tuple[list[int], list[int]]:
         """The icp loop closer's candidate rules, closest first: ``(picked, visible)``.
 
-        ``picked``: within ``radius``, past the travel and index gaps, one per run of
-        ``candidate_separation`` indices. ``visible``: the first ``max_candidates`` of them
-        that pass ``keep(i)`` (checked before the line-of-sight test, which is the costly
-        part) and have line of sight on the 2D map."""
+        ``older``/``newest``: planar estimates of keyframes 0..j-1 and j. ``picked``: within
+        ``radius``, past the travel and index gaps, one per run of ``candidate_separation``
+        indices. ``visible``: the first ``max_candidates`` of them that pass ``keep``
+        (``keep(indices) -> bool array``, checked before the line-of-sight test, which is
+        the costly part) and have line of sight on the 2D map."""
         cfg = self.config
-        last = j - cfg.min_index_gap + 1  # keyframes 0..last-1 may be candidates
+        # Keyframes 0..last-1 may be candidates. Travel never decreases, so the ones at
+        # least min_travel_gap of travel back are a prefix too.
+        last = min(j - cfg.min_index_gap + 1,
+                   bisect.bisect_right(self._travel, self._travel[j] - cfg.min_travel_gap))
         if last <= 0:
             return [], []
-        distance = np.hypot(*(poses[:last, :2] - poses[j, :2]).T)
-        ok = (distance <= radius) & (travel[j] - travel[:last] >= cfg.min_travel_gap)
-        if not ok.any():
+        distance = np.hypot(older[:last, 0] - newest[0], older[:last, 1] - newest[1])
+        indices = np.flatnonzero(distance <= radius)
+        if not len(indices):
             return [], []
-        indices = np.flatnonzero(ok)
         # 3x max_candidates: enough to survive the line-of-sight test
         picked = closest_separated(indices, distance[indices], cfg.candidate_separation,
                                    limit=3 * cfg.max_candidates)
-        kept = [i for i in picked if keep is None or keep(i)]
+        kept = picked if keep is None else [i for i, ok in zip(picked, keep(np.asarray(picked))) if ok]
         if not cfg.line_of_sight:
             return picked, kept[: cfg.max_candidates]
         visible: list[int] = []
-        blocked = session.occupancy.known_occupied
         for start in range(0, len(kept), cfg.max_candidates):  # closest first, until enough
             batch = kept[start: start + cfg.max_candidates]
-            clear = segments_clear(poses[j, :2], poses[batch, :2], blocked, session.scene.grid)
+            clear = segments_clear(newest[:2], older[batch, :2], session.occupancy)
             visible += [i for i, c in zip(batch, clear) if c]
             if len(visible) >= cfg.max_candidates:
                 break
         return picked, visible[: cfg.max_candidates]
 
-    def worth(self, i: int, j: int) -> bool:
-        """False if accepted closures already pin the relative pose of (i, j) below the
-        icp gate's ``min_sigma_*`` (icp would not register the pair). Stand-in for the
-        joint marginal: the relative sigma is the loop factor floor plus ``step_sigma_*``
-        per keyframe along the shortest path from i to j that uses accepted closures
-        as free links (:meth:`steps_via_closures`)."""
+    def worth(self, indices: np.ndarray, j: int) -> np.ndarray:
+        """Per keyframe in ``indices``: false if accepted closures already pin the relative
+        pose of (i, j) below the icp gate's ``min_sigma_*`` (icp would not register the
+        pair). Stand-in for the joint marginal: the relative sigma is the loop factor floor
+        plus ``step_sigma_*`` per keyframe along the shortest path from i to j that uses
+        accepted closures as free links (:meth:`steps_via_closures`)."""
         cfg = self.config
         limit = min((cfg.min_sigma_translation**2 - cfg.sigma_translation**2) / self.step_sigma_translation**2,
                     (cfg.min_sigma_rotation_deg**2 - cfg.sigma_rotation_deg**2) / self.step_sigma_rotation_deg**2)
-        return self.steps_via_closures(i, j) >= limit
+        return self.steps_via_closures(indices, j) >= limit
 
-    def steps_via_closures(self, i: int, j: int) -> float:
-        """Fewest keyframe steps from i to j on a path that uses at least one accepted
-        closure (inf if none): ``min |i - p| + D[p, q] + |q - j|`` over closure
-        endpoints p, q, with ``D`` their all-pairs distances (kept up to date in
-        :meth:`_link`; closures are zero-length links)."""
+    def steps_via_closures(self, indices: np.ndarray, j: int) -> np.ndarray:
+        """Per keyframe i in ``indices``: fewest keyframe steps from i to j on a path that
+        uses at least one accepted closure (inf if none): ``min |i - p| + D[p, q] + |q - j|``
+        over closure endpoints p, q, with ``D`` their all-pairs distances (kept up to date
+        in :meth:`_link`; closures are zero-length links)."""
+        indices = np.asarray(indices)
         if not self._nodes:
-            return float("inf")
+            return np.full(indices.shape, np.inf)
         nodes = np.asarray(self._nodes)
-        di, dj = np.abs(nodes - i), np.abs(nodes - j)
-        return float(np.min(di[:, None] + self._through[: len(nodes), : len(nodes)] + dj[None, :]))
+        to_j = np.min(self._through + np.abs(nodes - j)[None, :], axis=1)  # per p, over q
+        return np.min(np.abs(indices[:, None] - nodes[None, :]) + to_j[None, :], axis=1)
 
     def _link(self, a: int, b: int) -> None:
         """Add closure (a, b) to the endpoint distance tables.
@@ -417,38 +420,38 @@ class ModelLoopCloser:
 
     # ------------------------------------------------------------------ sources
 
-    def _pose_matching(self, session, poses, travel, j) -> int:
+    def _pose_matching(self, session, older, newest, j) -> int:
         cfg = self.config
         source = self.calibration.sources.get(POSE_MATCHING)
         if source is None:
             return 0
-        _, candidates = self.candidates(session, poses, travel, j, cfg.search_radius,
-                                        keep=lambda i: self.worth(i, j))
+        _, candidates = self.candidates(session, older, newest, j, cfg.search_radius,
+                                        keep=lambda indices: self.worth(indices, j))
         added = 0
         for i in candidates[: cfg.max_attempts_per_keyframe]:
             if added >= cfg.max_closures_per_keyframe:
                 break
-            distance = math.hypot(*(poses[i, :2] - poses[j, :2]))
+            distance = math.hypot(older[i, 0] - newest[0], older[i, 1] - newest[1])
             if self.rng.random() < source.rate(distance, "attempt"):
                 added += self._add(session, i, j, POSE_MATCHING)
         return added
 
-    def _segment_matching(self, session, poses, travel, j) -> int:
+    def _segment_matching(self, session, older, newest, j) -> int:
         cfg = self.config
         if j % cfg.segment_every or j + 1 < cfg.segment_submap_keyframes:
             return 0
         source = self.calibration.sources[SEGMENT_MATCHING]
-        previous = self._segment_revisit
+        previous = np.asarray(self._segment_revisit)
 
-        def starts_revisit(i: int) -> bool:  # one draw per revisit
-            near = any(abs(i - p) < cfg.segment_submap_keyframes for p in previous)
-            return not near and self.worth(i, j)
+        def starts_revisit(indices: np.ndarray) -> np.ndarray:  # one draw per revisit
+            near = (np.abs(indices[:, None] - previous[None, :]) < cfg.segment_submap_keyframes).any(axis=1)
+            return ~near & self.worth(indices, j)
 
-        picked, candidates = self.candidates(session, poses, travel, j, cfg.segment_search_radius,
+        picked, candidates = self.candidates(session, older, newest, j, cfg.segment_search_radius,
                                              keep=starts_revisit)
         self._segment_revisit = picked
         for i in candidates:
-            distance = math.hypot(*(poses[i, :2] - poses[j, :2]))
+            distance = math.hypot(older[i, 0] - newest[0], older[i, 1] - newest[1])
             if self.rng.random() < source.rate(distance, "revisit"):
                 return self._add(session, i, j, SEGMENT_MATCHING)
         return 0
@@ -459,10 +462,10 @@ class ModelLoopCloser:
         truth = se2_between(session.keyframes[i].true_pose, session.keyframes[j].true_pose)
         error = np.array([*rng.normal(0.0, source.rms_translation / np.sqrt(2.0), 2),
                           rng.normal(0.0, np.deg2rad(source.rms_rotation_deg))])
-        planar_cov = np.diag([np.deg2rad(cfg.sigma_rotation_deg) ** 2, cfg.sigma_translation**2,
-                              cfg.sigma_translation**2])
-        session.graph.add_loop_closure(i, j, se2_to_matrix(se2_compose(truth, error)),
-                                       planar_covariance_6x6(planar_cov, cfg.off_plane_sigma), kind)
+        t_var = cfg.sigma_translation**2
+        covariance = covariance_6x6(math.radians(cfg.sigma_rotation_deg) ** 2, t_var, 0.0, t_var,
+                                    cfg.off_plane_sigma**2)
+        session.graph.add_loop_closure(i, j, se2_to_matrix(se2_compose(truth, error)), covariance, kind)
         self.closures[kind] += 1
         self.accepted.append((i, j))
         self._link(i, j)

@@ -49,9 +49,18 @@ class FactorRecord:
     robust: bool = False
 
     def __post_init__(self) -> None:
-        # Own copies: the log must not change if the caller reuses its arrays.
-        object.__setattr__(self, "measurement", np.array(self.measurement, dtype=float))
-        object.__setattr__(self, "covariance", np.array(self.covariance, dtype=float))
+        # Own read-only copies: the log must not change if the caller reuses its arrays.
+        object.__setattr__(self, "measurement", frozen_array(self.measurement))
+        object.__setattr__(self, "covariance", frozen_array(self.covariance))
+
+
+def frozen_array(values) -> np.ndarray:
+    """A read-only float copy of ``values`` (an array that is one already is kept)."""
+    if isinstance(values, np.ndarray) and values.dtype == np.float64 and not values.flags.writeable:
+        return values
+    array = np.array(values, dtype=float)
+    array.flags.writeable = False
+    return array
 
 
 @dataclass
@@ -141,8 +150,10 @@ class PoseGraph:
         self.version = 0
         self._num_poses = 0
         self._cache: dict[tuple, np.ndarray] = {}
-        # Odometry noise models by motion-step count: a handful of distinct ones per run,
-        # and building one is a third of the Python cost of a keyframe.
+        # Odometry covariances by motion-step count and noise models by covariance: a
+        # handful of distinct ones per run, and building them was a third of the Python
+        # cost of a keyframe.
+        self._odometry_covariances: dict[int, np.ndarray] = {}
         self._odometry_noise: dict[bytes, gtsam.noiseModel.Base] = {}
 
     # ------------------------------------------------------------------ updates
@@ -163,9 +174,7 @@ class PoseGraph:
         i, j = self._num_poses - 1, self._num_poses
         delta = as_matrix(odom_delta)
         guess = self.pose(i) @ delta
-        factors = [
-            FactorRecord(ODOMETRY, i, j, delta, odometry_covariance(self.config, motion_steps))
-        ]
+        factors = [FactorRecord(ODOMETRY, i, j, delta, self._odometry_covariance(motion_steps))]
         if ssm is not None and ssm.usable:
             ref = j - int(ssm.span)
             if ref < 0:
@@ -177,6 +186,14 @@ class PoseGraph:
             )
         self._apply(_Batch(factors, {j: guess}))
         return j
+
+    def _odometry_covariance(self, motion_steps: int) -> np.ndarray:
+        steps = max(int(motion_steps), 1)
+        covariance = self._odometry_covariances.get(steps)
+        if covariance is None:
+            covariance = self._odometry_covariances[steps] = frozen_array(
+                odometry_covariance(self.config, steps))
+        return covariance
 
     def add_loop_closure(
         self, i: int, j: int, relative: np.ndarray, covariance: np.ndarray, kind: str
@@ -341,6 +358,7 @@ class PoseGraph:
         other.version = self.version
         other._num_poses = self._num_poses
         other._cache = dict(self._cache)
+        other._odometry_covariances = self._odometry_covariances
         other._odometry_noise = self._odometry_noise
         return other
 

@@ -245,3 +245,16 @@ def test_real_office_scan_agrees_with_ground_truth(office):
     assert not (occupancy.known_occupied & ~near_solid).any()
     assert not (occupancy.known_free & deep_solid).any()
     assert 0.01 < explored_fraction(occupancy, office.truth.reachable) < 0.5
+
+
+def test_occupied_at_reads_known_occupied_and_treats_outside_as_free():
+    grid = GridSpec((0.0, 0.0), 0.1, (20, 30))
+    occupancy = OccupancyGrid(grid, OccupancyConfig())
+    rng = np.random.default_rng(2)
+    occupancy.log_odds[:] = rng.uniform(-2.0, 3.0, grid.shape)
+    cells = rng.integers(-5, 35, size=(50, 7, 2))
+    inside = (cells[..., 0] >= 0) & (cells[..., 0] < 20) & (cells[..., 1] >= 0) & (cells[..., 1] < 30)
+    expected = np.zeros(cells.shape[:2], bool)
+    expected[inside] = occupancy.known_occupied[cells[..., 0][inside], cells[..., 1][inside]]
+    np.testing.assert_array_equal(occupancy.occupied_at(cells), expected)
+    assert expected.any() and (~expected & inside).any()

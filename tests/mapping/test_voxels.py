@@ -67,3 +67,13 @@ def test_key_packing_round_trips():
     np.testing.assert_array_equal(unpack_keys(pack_keys(keys)), keys)
     with pytest.raises(ValueError):
         pack_keys(np.array([[2**21, 0, 0]]))
+
+
+def test_incremental_inserts_keep_keys_sorted_unique_and_equal_to_union1d():
+    rng = np.random.default_rng(7)
+    voxels, reference = VoxelMap(VoxelConfig(voxel_size=0.1)), np.zeros(0, dtype=np.int64)
+    for _ in range(30):  # overlapping clouds: some keys new, some present, some beyond the ends
+        cloud = rng.normal(rng.uniform(-3.0, 3.0, 3), 0.5, size=(300, 3))
+        voxels.insert(cloud)
+        reference = np.union1d(reference, pack_keys(np.floor(cloud / 0.1).astype(np.int64)))
+        np.testing.assert_array_equal(voxels.keys, reference)

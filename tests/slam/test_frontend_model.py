@@ -255,13 +255,14 @@ class _FakeSession:
         from types import SimpleNamespace
 
         from explore_rl.grid import GridSpec
+        from explore_rl.mapping.occupancy import OccupancyGrid
         from explore_rl.slam.config import PoseGraphConfig
         from explore_rl.slam.pose_graph import PoseGraph
 
         self.graph = PoseGraph(PoseGraphConfig(), start)
         grid = GridSpec((-2.0, -2.0), 0.1, (80, 80))
         self.scene = SimpleNamespace(grid=grid)
-        self.occupancy = SimpleNamespace(known_occupied=np.zeros(grid.shape, bool))
+        self.occupancy = OccupancyGrid(grid)  # nothing known: no wall blocks a candidate
         self.keyframes = [SimpleNamespace(true_pose=np.asarray(start, float), travel=0.0,
                                           error_points=np.zeros((4, 3)))]
         self.map_poses = np.zeros((0, 3))
@@ -310,3 +311,49 @@ def test_model_loop_closer_closes_revisits_with_the_fitted_error():
     # No two accepted closures of one run are "worth"-close to each other.
     for (a, b), (c, d) in zip(closer.accepted, closer.accepted[1:]):
         assert abs(a - c) + abs(b - d) >= 1
+
+
+def test_steps_via_closures_follow_the_closure_links():
+    """One closure (a, b): the path from i to j over it is |i - a| + |b - j| or the other way
+    round. Several: the vectorised minimum equals the definition's double loop over the
+    closure endpoints p, q: |i - p| + through[p, q] + |q - j|."""
+    from explore_rl.slam.config import LoopClosureConfig
+    from explore_rl.slam.frontend_model import ModelLoopCloser
+
+    rng = np.random.default_rng(4)
+    indices = np.arange(60)
+    single = ModelLoopCloser(LoopClosureConfig(), load_loop_closures(), rng)
+    assert np.all(np.isinf(single.steps_via_closures(indices, 10)))
+    single._link(12, 47)
+    for j in (0, 12, 30, 47, 59):
+        expected = np.minimum(np.abs(indices - 12) + abs(47 - j), np.abs(indices - 47) + abs(12 - j))
+        np.testing.assert_array_equal(single.steps_via_closures(indices, j), expected)
+
+    closer = ModelLoopCloser(LoopClosureConfig(), load_loop_closures(), rng)
+    for _ in range(7):
+        a, b = sorted(rng.choice(60, 2, replace=False))
+        closer._link(int(a), int(b))
+    nodes = closer._nodes
+    for j in rng.choice(60, 8, replace=False):
+        expected = [min(abs(i - p) + closer._through[u, v] + abs(q - j)
+                        for u, p in enumerate(nodes) for v, q in enumerate(nodes)) for i in indices]
+        np.testing.assert_array_equal(closer.steps_via_closures(indices, int(j)), expected)
+
+
+def test_segments_clear_matches_the_grid_line_of_sight():
+    from explore_rl.grid import GridSpec
+    from explore_rl.mapping.occupancy import OccupancyGrid
+    from explore_rl.mapping.visibility import line_of_sight
+    from explore_rl.slam.frontend_model import segments_clear
+
+    rng = np.random.default_rng(5)
+    grid = GridSpec((-2.0, -1.0), 0.1, (40, 50))
+    occupancy = OccupancyGrid(grid)
+    occupancy.log_odds[rng.random(grid.shape) < 0.04] = 3.0  # scattered walls
+    occupancy.log_odds[10:30, 25] = 3.0
+    start = np.array([0.3, 1.1])
+    ends = rng.uniform([-3.0, -2.0], [4.0, 4.0], size=(200, 2))  # some end outside the grid
+    got = segments_clear(start, ends, occupancy)
+    expected = line_of_sight(np.tile(start, (len(ends), 1)), ends, occupancy.known_occupied, grid, 0.5)
+    np.testing.assert_array_equal(got, expected)
+    assert 20 < got.sum() < 180  # both outcomes occur
