@@ -74,6 +74,12 @@ def rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a - b) / np.linalg.norm(b))
 
 
+def test_key_is_gtsams_symbol():
+    for i in (0, 1, 7, 12345, 2**40):
+        assert key(i) == gtsam.symbol("x", i)
+        assert gtsam.Symbol(key(i)).chr() == ord("x") and gtsam.Symbol(key(i)).index() == i
+
+
 def test_marginals_match_dense_information_inverse():
     config = PoseGraphConfig(loop_robust_kernel="none")
     truth, steps = square_path(side=2.0, step=1.0)  # 8 poses
