@@ -39,7 +39,7 @@ from explore_rl.robot import Robot  # noqa: E402
 from explore_rl.scene.build import make_scene  # noqa: E402
 from explore_rl.sensors.lidar import Lidar  # noqa: E402
 from explore_rl.slam.session import SlamSession  # noqa: E402
-from explore_rl.tour import plan_tour  # noqa: E402
+from explore_rl.tour import plan_tour, tour_paths  # noqa: E402
 
 SLAM_STAGES = ("registration", "isam2", "loops")
 
@@ -95,8 +95,7 @@ def drive_icp(seed: int, goals_limit: int | None) -> dict:
     """The tour under icp, steering by its belief; returns its scores and every motion step."""
     config, scene = tour_config(seed, "icp")
     goals = config.tour.goals[:goals_limit] if goals_limit else config.tour.goals
-    paths = replace(config.mapping.paths, inflation_margin=config.tour.inflation_margin)
-    waypoints = plan_tour(scene, scene.start_pose[:2], goals, config.robot.radius, paths)
+    waypoints = plan_tour(scene, scene.start_pose[:2], goals, config.robot.radius, tour_paths(config))
     robot = Robot(config.robot, scene.start_pose, scene.is_free, np.random.default_rng([seed, 2]))
     icp = TimedSession(new_session(config, scene, "icp"))
     for step in robot.follow(waypoints):

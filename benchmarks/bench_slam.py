@@ -25,7 +25,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import sys  # noqa: E402
 import time  # noqa: E402
-from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -72,8 +71,7 @@ def drive_tour(config, goals_limit: int | None) -> tuple[TourRun, list[MotionSte
     config.scene.start_index = config.tour.start_index
     scene = make_scene(config.scene, config.robot, config.lidar)
     goals = config.tour.goals[:goals_limit] if goals_limit else config.tour.goals
-    paths = replace(config.mapping.paths, inflation_margin=config.tour.inflation_margin)
-    waypoints = plan_tour(scene, scene.start_pose[:2], goals, config.robot.radius, paths)
+    waypoints = plan_tour(scene, scene.start_pose[:2], goals, config.robot.radius, tour_paths(config))
     robot = Robot(config.robot, scene.start_pose, scene.is_free, np.random.default_rng([config.seed, 2]))
     recorder = RecordingSession(new_session(config, scene))
     status = drive_with_slam(robot, recorder, waypoints)

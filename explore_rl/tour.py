@@ -23,6 +23,18 @@ class TourConfig:
     goals: list[list[float]] = field(default_factory=list)
     # extra clearance (m) of tour paths from obstacles: the robot steers by its estimate
     inflation_margin: float = 0.1
+    # The tour's own path costs (see mapping.paths): kept at the values the benchmarks'
+    # tours (bench_slam, bench_frontends, the calibrations) were recorded with, so the
+    # tours stay the same trajectories when the exploration defaults change.
+    clearance_weight: float = 1.0
+    clearance_scale: float = 0.3
+
+
+def tour_paths(config) -> PathConfig:
+    """The path settings of the tour: the exploration's, with the tour's margin and costs."""
+    tour = config.tour
+    return replace(config.mapping.paths, inflation_margin=tour.inflation_margin,
+                   clearance_weight=tour.clearance_weight, clearance_scale=tour.clearance_scale)
 
 
 def plan_tour(scene: Scene, start_xy: np.ndarray, goals: list[list[float]], robot_radius: float,
@@ -59,8 +71,7 @@ def run_tour(config, goals_limit: int | None = None) -> TourRun:
     scene = make_scene(config.scene, config.robot, config.lidar)
     start = scene.start_pose
     goals = config.tour.goals[:goals_limit] if goals_limit else config.tour.goals
-    paths = replace(config.mapping.paths, inflation_margin=config.tour.inflation_margin)
-    waypoints = plan_tour(scene, start[:2], goals, config.robot.radius, paths)
+    waypoints = plan_tour(scene, start[:2], goals, config.robot.radius, tour_paths(config))
     lidar = Lidar(scene, config.lidar, np.random.default_rng([config.seed, 1]))
     robot = Robot(config.robot, start, scene.is_free, np.random.default_rng([config.seed, 2]))
     session = SlamSession(config.slam, config.mapping, scene, lidar, start,
