@@ -38,7 +38,10 @@ _KEY_BASE = ord("x") << 56  # gtsam.Symbol layout: the character in the top byte
 def key(i: int) -> int:
     """gtsam key of keyframe ``i``: ``gtsam.symbol("x", i)`` in plain integer arithmetic
     (a call into gtsam costs ~10x more on the per-keyframe path)."""
-    return _KEY_BASE | int(i)
+    i = int(i)
+    if i < 0:
+        raise IndexError(f"keyframe index must be >= 0, got {i}")
+    return _KEY_BASE | i
 
 
 @dataclass(frozen=True)

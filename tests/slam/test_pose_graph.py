@@ -78,6 +78,8 @@ def test_key_is_gtsams_symbol():
     for i in (0, 1, 7, 12345, 2**40):
         assert key(i) == gtsam.symbol("x", i)
         assert gtsam.Symbol(key(i)).chr() == ord("x") and gtsam.Symbol(key(i)).index() == i
+    with pytest.raises(IndexError, match=">= 0"):
+        key(-1)
 
 
 def test_marginals_match_dense_information_inverse():
