@@ -50,22 +50,36 @@ def covariance_intersection(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, n
     """
     info_a, info_b = _inv2(np.asarray(a, float)), _inv2(np.asarray(b, float))
     info_a, info_b = np.broadcast_arrays(info_a, info_b)
-    diff = info_a - info_b
-    quad = _det2(diff)
-    lin = (
-        info_b[..., 0, 0] * diff[..., 1, 1]
-        + info_b[..., 1, 1] * diff[..., 0, 0]
-        - info_b[..., 0, 1] * diff[..., 1, 0]
-        - info_b[..., 1, 0] * diff[..., 0, 1]
-    )
-    det_a, det_b = _det2(info_a), _det2(info_b)  # the quadratic at w = 1 and w = 0
+    w = _ci_weight(_components(info_a), _components(info_b))
+    fused_info = w[..., None, None] * info_a + (1.0 - w[..., None, None]) * info_b
+    return _inv2(fused_info), w
+
+
+def _components(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(m00, m01, m11)`` of symmetric 2x2 matrices ``(..., 2, 2)``."""
+    return m[..., 0, 0], m[..., 0, 1], m[..., 1, 1]
+
+
+def _inverse_components(m00, m01, m11) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Components of the inverses of symmetric 2x2 matrices given by their components."""
+    det = m00 * m11 - m01 * m01
+    return m11 / det, -m01 / det, m00 / det
+
+
+def _ci_weight(info_a, info_b) -> np.ndarray:
+    """The covariance-intersection weight ``w`` of information matrices given as
+    components ``(i00, i01, i11)``: the maximiser over [0, 1] of ``det(IB + w (IA - IB))``."""
+    a00, a01, a11 = info_a
+    b00, b01, b11 = info_b
+    d00, d01, d11 = a00 - b00, a01 - b01, a11 - b11
+    quad = d00 * d11 - d01 * d01
+    lin = b00 * d11 + b11 * d00 - 2.0 * b01 * d01
+    det_a, det_b = a00 * a11 - a01 * a01, b00 * b11 - b01 * b01  # the quadratic at w = 1 and 0
     endpoint = np.where(det_a > det_b, 1.0, np.where(det_a < det_b, 0.0, 0.5))
     concave = quad < 0
     with np.errstate(divide="ignore", invalid="ignore"):
         stationary = np.clip(-lin / (2.0 * np.where(concave, quad, 1.0)), 0.0, 1.0)
-    w = np.where(concave, stationary, endpoint)
-    fused_info = w[..., None, None] * info_a + (1.0 - w[..., None, None]) * info_b
-    return _inv2(fused_info), w
+    return np.where(concave, stationary, endpoint)
 
 
 def log_det_utility(covs: np.ndarray) -> float:
@@ -279,19 +293,35 @@ class VirtualMap:
 
 
 def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray) -> None:
-    """Fuse ``observed[i]`` into ``covs[landmark_idx[i]]`` in place, in index order.
+    """Fuse ``observed[i]`` into ``covs[landmark_idx[i]]`` in place, in index order, by
+    covariance intersection (:func:`covariance_intersection`).
 
     The j-th observation of every landmark is fused in round j, all landmarks at once.
+    The rounds run on information components (three flat arrays), inverting each
+    observation once and each landmark twice, instead of every matrix in every round.
     """
+    if not len(landmark_idx):
+        return
     order = np.argsort(landmark_idx, kind="stable")
     sorted_lm = landmark_idx[order]
     starts = np.flatnonzero(np.r_[True, sorted_lm[1:] != sorted_lm[:-1]])
     group_sizes = np.diff(np.r_[starts, len(sorted_lm)])
     rank = np.arange(len(sorted_lm)) - np.repeat(starts, group_sizes)
     by_round = order[np.argsort(rank, kind="stable")]
+    seen = sorted_lm[starts]
+    info = [np.array(c) for c in _inverse_components(*_components(covs[seen]))]
+    slot = np.empty(len(covs), dtype=np.int64)  # landmark -> row of ``info``
+    slot[seen] = np.arange(len(seen))
+    observed_info = _inverse_components(*_components(observed))
     begin = 0
     for count in np.bincount(rank):
         sel = by_round[begin : begin + count]
         begin += count
-        lm = landmark_idx[sel]
-        covs[lm], _ = covariance_intersection(covs[lm], observed[sel])
+        rows = slot[landmark_idx[sel]]
+        current = [c[rows] for c in info]
+        new = [c[sel] for c in observed_info]
+        w = _ci_weight(current, new)
+        for component, a, b in zip(info, current, new):
+            component[rows] = b + w * (a - b)
+    c00, c01, c11 = _inverse_components(*info)
+    covs[seen, 0, 0], covs[seen, 0, 1], covs[seen, 1, 0], covs[seen, 1, 1] = c00, c01, c01, c11

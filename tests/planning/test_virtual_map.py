@@ -17,6 +17,7 @@ from explore_rl.planning.config import PlanningConfig, VirtualMapConfig
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     covariance_intersection,
+    fuse_in_order,
     landmark_covariance_from_pose,
     measurement_noise,
     range_bearing,
@@ -271,3 +272,18 @@ def test_yaml_defaults_match_dataclasses():
     """conf/planning/default.yaml repeats the dataclass defaults (config.py)."""
     path = Path(__file__).parents[2] / "conf" / "planning" / "default.yaml"
     assert yaml.safe_load(path.read_text()) == asdict(PlanningConfig())
+
+
+def test_fuse_in_order_equals_fusing_one_observation_at_a_time():
+    rng = np.random.default_rng(11)
+    covs, observed = random_spd(rng, 30), random_spd(rng, 200)
+    landmark_idx = rng.integers(0, 25, 200)  # landmarks 25-29 never observed
+    expected = covs.copy()
+    for lm, obs in zip(landmark_idx, observed):
+        expected[lm], _ = covariance_intersection(expected[lm], obs)
+    fused = covs.copy()
+    fuse_in_order(fused, landmark_idx, observed)
+    np.testing.assert_allclose(fused, expected, rtol=1e-9, atol=1e-15)
+    np.testing.assert_array_equal(fused[25:], covs[25:])
+    fuse_in_order(fused, np.zeros(0, dtype=int), np.zeros((0, 2, 2)))  # nothing to fuse
+    np.testing.assert_allclose(fused, expected, rtol=1e-9, atol=1e-15)
