@@ -79,10 +79,21 @@ def validate(config: Config) -> None:
         "lidar.max_range": config.lidar.max_range,
         "lidar.azimuth_resolution_deg": config.lidar.azimuth_resolution_deg,
         "scene.grid_resolution": config.scene.grid_resolution,
+        "mapping.paths.clearance_scale": config.mapping.paths.clearance_scale,
+        "tour.clearance_scale": config.tour.clearance_scale,
     }
     for key, value in positive.items():
         if not value > 0:
             raise ValueError(f"{key} must be positive, got {value}")
+    non_negative = {  # path costs: negative weights would break Dijkstra
+        "mapping.paths.inflation_margin": config.mapping.paths.inflation_margin,
+        "mapping.paths.clearance_weight": config.mapping.paths.clearance_weight,
+        "tour.inflation_margin": config.tour.inflation_margin,
+        "tour.clearance_weight": config.tour.clearance_weight,
+    }
+    for key, value in non_negative.items():
+        if not value >= 0:
+            raise ValueError(f"{key} must be >= 0, got {value}")
     if config.slam.frontend not in ("icp", "model"):
         raise ValueError(f"slam.frontend={config.slam.frontend!r}: choose slam=icp or slam=model")
     if config.policy.name not in ("nearest", "random", "em", "learned"):

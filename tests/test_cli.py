@@ -41,6 +41,8 @@ def test_unknown_key_fails_at_composition():
     ("robot.radius=-1", "robot.radius must be positive"),
     ("slam.frontend=lidar", "slam.frontend='lidar'"),
     ("explore.target_explored=1.5", "explore.target_explored"),
+    ("mapping.paths.clearance_weight=-2", "mapping.paths.clearance_weight must be >= 0"),
+    ("tour.clearance_scale=0", "tour.clearance_scale must be positive"),
 ])
 def test_validate_names_the_key(override, message):
     with pytest.raises(ValueError, match=message):

@@ -62,8 +62,8 @@ loop-closure count fall within the spread of icp's over the seeds, and its SLAM 
 20.8x with the other core busy). Of the model's 1.2 ms, ~0.45 ms are iSAM2 updates (the
 same in both modes); most of the rest is the cost of calls into gtsam and numpy on caches
 the LiDAR stage has just flushed (20-40 us per call versus 1-6 us warm), which is why the
-per-keyframe code here uses scalar ``math`` and as few such calls as it can. The LiDAR stays (measured on
-an office tour, 183 keyframes): the 3D voxel map and the map-error sample need the 3D
+per-keyframe code here uses scalar ``math`` and as few such calls as it can. The LiDAR
+stays (measured on an office tour, 183 keyframes): the 3D voxel map and the map-error sample need the 3D
 scan anyway; a vectorised 2D ray cast on the true obstacle grid gave nearly the same
 explored fraction (65.3 vs 65.2 %) but not the same grid (4 % of known-free and 70 % of
 known-occupied cells differ: hits land on other wall cells) and was no cheaper in numpy
