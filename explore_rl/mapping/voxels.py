@@ -2,8 +2,9 @@
 
 Voxel keys ``floor(p / voxel_size)`` are packed into one int64 each and kept as a sorted
 unique array. Inserting a cloud sorts only the cloud's keys and inserts the new ones at
-their ``np.searchsorted`` positions (no Python loop, and no re-sort of the whole map: a
-``np.union1d`` per keyframe cost ~6 ms at 100k voxels, this ~0.3 ms).
+their ``np.searchsorted`` positions (no Python loop, and no re-sort of the whole map: on
+a 144k-voxel map a 5,000-point cloud takes ~3 ms this way and ~150 ms with ``np.union1d``;
+in model-mode office tours the maps stage went from 9-12 to 3-7 ms per keyframe).
 Range capping and ground removal are the caller's job.
 """
 
