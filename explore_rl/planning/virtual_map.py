@@ -48,16 +48,19 @@ def covariance_intersection(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, n
     clamped stationary point when the quadratic is concave, else the better endpoint.
     Returns ``(fused covariance, w)``; symmetric: swapping the inputs maps ``w -> 1 - w``.
     """
-    info_a, info_b = _inv2(np.asarray(a, float)), _inv2(np.asarray(b, float))
-    info_a, info_b = np.broadcast_arrays(info_a, info_b)
-    w = _ci_weight(_components(info_a), _components(info_b))
-    fused_info = w[..., None, None] * info_a + (1.0 - w[..., None, None]) * info_b
-    return _inv2(fused_info), w
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    fused, w = _ci_fuse(_information(a), _information(b))
+    return _matrix(*_inverse_components(*fused)), w
 
 
 def _components(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(m00, m01, m11)`` of symmetric 2x2 matrices ``(..., 2, 2)``."""
     return m[..., 0, 0], m[..., 0, 1], m[..., 1, 1]
+
+
+def _matrix(m00, m01, m11) -> np.ndarray:
+    """Symmetric 2x2 matrices ``(..., 2, 2)`` from their components."""
+    return np.stack([np.stack([m00, m01], axis=-1), np.stack([m01, m11], axis=-1)], axis=-2)
 
 
 def _inverse_components(m00, m01, m11) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -66,9 +69,15 @@ def _inverse_components(m00, m01, m11) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return m11 / det, -m01 / det, m00 / det
 
 
-def _ci_weight(info_a, info_b) -> np.ndarray:
-    """The covariance-intersection weight ``w`` of information matrices given as
-    components ``(i00, i01, i11)``: the maximiser over [0, 1] of ``det(IB + w (IA - IB))``."""
+def _information(covs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Components of the information matrices (inverses) of 2x2 covariances."""
+    return _inverse_components(*_components(covs))
+
+
+def _ci_fuse(info_a, info_b) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """Covariance intersection of information matrices given as components ``(i00, i01,
+    i11)``: the fused information ``IB + w (IA - IB)`` and ``w``, the maximiser over [0, 1]
+    of its determinant."""
     a00, a01, a11 = info_a
     b00, b01, b11 = info_b
     d00, d01, d11 = a00 - b00, a01 - b01, a11 - b11
@@ -79,7 +88,8 @@ def _ci_weight(info_a, info_b) -> np.ndarray:
     concave = quad < 0
     with np.errstate(divide="ignore", invalid="ignore"):
         stationary = np.clip(-lin / (2.0 * np.where(concave, quad, 1.0)), 0.0, 1.0)
-    return np.where(concave, stationary, endpoint)
+    w = np.where(concave, stationary, endpoint)
+    return (b00 + w * d00, b01 + w * d01, b11 + w * d11), w
 
 
 def log_det_utility(covs: np.ndarray) -> float:
@@ -309,19 +319,16 @@ def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarr
     rank = np.arange(len(sorted_lm)) - np.repeat(starts, group_sizes)
     by_round = order[np.argsort(rank, kind="stable")]
     seen = sorted_lm[starts]
-    info = [np.array(c) for c in _inverse_components(*_components(covs[seen]))]
+    info = [np.array(c) for c in _information(covs[seen])]
     slot = np.empty(len(covs), dtype=np.int64)  # landmark -> row of ``info``
     slot[seen] = np.arange(len(seen))
-    observed_info = _inverse_components(*_components(observed))
+    observed_info = _information(observed)
     begin = 0
     for count in np.bincount(rank):
         sel = by_round[begin : begin + count]
         begin += count
         rows = slot[landmark_idx[sel]]
-        current = [c[rows] for c in info]
-        new = [c[sel] for c in observed_info]
-        w = _ci_weight(current, new)
-        for component, a, b in zip(info, current, new):
-            component[rows] = b + w * (a - b)
-    c00, c01, c11 = _inverse_components(*info)
-    covs[seen, 0, 0], covs[seen, 0, 1], covs[seen, 1, 0], covs[seen, 1, 1] = c00, c01, c01, c11
+        fused, _ = _ci_fuse([c[rows] for c in info], [c[sel] for c in observed_info])
+        for component, value in zip(info, fused):
+            component[rows] = value
+    covs[seen] = _matrix(*_inverse_components(*info))
