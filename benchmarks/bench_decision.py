@@ -38,7 +38,7 @@ from explore_rl.planning.em import EMPlanner  # noqa: E402
 from explore_rl.planning.policies import NearestFrontier, PolicyConfig  # noqa: E402
 from explore_rl.planning.revisits import sample_path  # noqa: E402
 from explore_rl.robot import RobotConfig  # noqa: E402
-from explore_rl.runner import Candidate, ExplorationState  # noqa: E402
+from explore_rl.state import Candidate, ExplorationState  # noqa: E402
 from explore_rl.slam.config import SlamConfig  # noqa: E402
 from explore_rl.slam.frontend import ScanMatch  # noqa: E402
 from explore_rl.slam.pose_graph import PoseGraph  # noqa: E402

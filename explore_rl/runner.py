@@ -23,12 +23,13 @@ from enum import Enum
 import numpy as np
 
 from explore_rl.mapping.frontiers import Frontier, find_frontiers
-from explore_rl.mapping.paths import DistanceField, PathPlanner, path_length, simplify_path, traversability
+from explore_rl.mapping.paths import PathPlanner, path_length, simplify_path, traversability
 from explore_rl.planning.policies import Policy, make_policy
 from explore_rl.robot import EscapeConfig, PathStatus, Robot
 from explore_rl.scene.build import Scene, make_scene
 from explore_rl.sensors.lidar import Lidar
 from explore_rl.slam.session import SlamSession
+from explore_rl.state import Candidate, ExplorationState
 
 log = logging.getLogger(__name__)
 
@@ -58,26 +59,6 @@ class Status(str, Enum):
     NO_FRONTIER = "no_reachable_frontier"
     BUDGET = "travel_budget"
     MAX_DECISIONS = "max_decisions"
-
-
-@dataclass
-class Candidate:
-    frontier: Frontier
-    path: np.ndarray  # (K, 2) world xy from the robot to the frontier's waypoint
-    length: float
-
-
-@dataclass
-class ExplorationState:
-    """What a policy sees at a decision."""
-
-    session: SlamSession
-    pose: np.ndarray  # belief pose [x, y, yaw]
-    travel: float
-    candidates: list[Candidate]
-    nearest: int
-    distance_field: DistanceField
-    traversable: np.ndarray
 
 
 @dataclass
@@ -195,9 +176,9 @@ class Explorer:
         clearance_before, travel_before = robot.footprint_clearance(), robot.travelled
         self.move(robot.escape(config))
         escaped = robot.status is PathStatus.REACHED
-        # routine next to walls (paths have no inflation margin): info; a failed escape: warning
+        # routine next to walls (paths have no inflation margin): debug; a failed escape: warning
         log.log(
-            logging.INFO if escaped else logging.WARNING,
+            logging.DEBUG if escaped else logging.WARNING,
             "robot %.3f m from an obstacle at %s (belief %s): escape %s after %.2f m at %s "
             "(belief %s), clearance %.3f m", clearance_before, true_before, belief_before,
             "done" if escaped else "failed", robot.travelled - travel_before,
@@ -216,21 +197,35 @@ class Explorer:
 
     def step(self) -> DecisionRecord | None:
         """One decision: observe, choose, drive, log. None (and a final status) when done."""
+        start = time.perf_counter()
+        state = self.next_state()
+        if state is None:
+            return None
+        chosen = int(self.policy.choose(state))
+        return self.act(state, chosen, ms_decide=1e3 * (time.perf_counter() - start))
+
+    def next_state(self) -> ExplorationState | None:
+        """The state of the next decision (after backing off an obstacle if needed), or
+        None with ``result.status`` set when the exploration is over.
+
+        The first half of :meth:`step`; the TorchRL environment calls it and :meth:`act`
+        around its own choice, so both loops share one exploration step.
+        """
         status = self.done()
         if status is not Status.RUNNING:
             self.result.status = status
             return None
         self.escape()
-        start = time.perf_counter()
         state = self.observe()
         if state is None:
             self.result.status = Status.NO_FRONTIER
             log.info("no reachable frontier: exploration ends")
-            return None
-        chosen = int(self.policy.choose(state))
+        return state
+
+    def act(self, state: ExplorationState, chosen: int, ms_decide: float = 0.0) -> DecisionRecord:
+        """Drive to ``state.candidates[chosen]``, update the skip lists, log the decision."""
         if not 0 <= chosen < len(state.candidates):
             raise ValueError(f"policy {self.policy.name} chose {chosen} of {len(state.candidates)} candidates")
-        ms_decide = 1e3 * (time.perf_counter() - start)
         self.last_state, self.last_choice = state, chosen
         candidate = state.candidates[chosen]
         start, travel_before = time.perf_counter(), self.robot.travelled

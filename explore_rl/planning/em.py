@@ -44,7 +44,7 @@ from explore_rl.slam.frontend import ScanMatch
 from explore_rl.slam.pose_graph import PoseGraph, key, odometry_covariance
 
 if TYPE_CHECKING:
-    from explore_rl.runner import ExplorationState
+    from explore_rl.state import ExplorationState
 
 # Rows/columns (x, y, yaw) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz).
 PLANAR_TANGENT = [3, 4, 2]

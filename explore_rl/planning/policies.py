@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 if TYPE_CHECKING:
-    from explore_rl.runner import ExplorationState
+    from explore_rl.state import ExplorationState
 
 
 @dataclass

@@ -29,7 +29,7 @@ from explore_rl.planning.em import (
 from explore_rl.planning.policies import NearestFrontier, PolicyConfig
 from explore_rl.planning.revisits import predict_revisits, sample_path
 from explore_rl.planning.virtual_map import VirtualMap
-from explore_rl.runner import Candidate, ExplorationState
+from explore_rl.state import Candidate, ExplorationState
 from explore_rl.slam.config import PoseGraphConfig, SlamConfig
 from explore_rl.slam.pose_graph import PoseGraph, key
 
