@@ -5,7 +5,6 @@ from explore_rl.geometry import rotation_2d, se2_to_matrix, transform_points
 from explore_rl.robot import RobotConfig
 from explore_rl.scene.build import make_scene
 from explore_rl.scene.config import SceneConfig
-from explore_rl.scene.layout import Box
 from explore_rl.sensors.analytic import cast_rays
 from explore_rl.sensors.lidar import Lidar, LidarConfig, ray_directions
 

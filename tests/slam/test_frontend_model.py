@@ -288,7 +288,7 @@ def test_model_loop_closer_closes_revisits_with_the_fitted_error():
         session.graph.add_loop_closure = recording_add
         closer = ModelLoopCloser(LoopClosureConfig(segments_enabled=False), calibration,
                                  np.random.default_rng(trial))
-        true, odom = np.zeros(3), np.zeros(3)
+        true = np.zeros(3)
         for k in range(1, 49):
             step = np.array([0.5, 0.0, np.pi / 2 if k % 6 == 0 else 0.0])
             true = se2_compose(true, step)
