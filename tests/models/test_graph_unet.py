@@ -1,0 +1,213 @@
+"""The dense g-U-Net: equal to PyG's GraphUNet with shared weights, blind to padding."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import pytest
+import torch
+from torch_geometric.nn import GraphUNet
+
+from explore_rl.models.graph_unet import (
+    DenseGraphUNet,
+    DenseTopKPool,
+    augmented_adjacency,
+    gcn_normalize,
+    state_dict_from_pyg,
+    used_node_slots,
+)
+from tests.models.graphs import N_FEATURES, pad, random_graphs, to_pyg
+
+HIDDEN, OUT = 32, 8
+TOLERANCE = 1e-5
+
+
+def pyg_and_dense(depth: int = 3, sum_res: bool = True, edge_weight: str = "distance",
+                  seed: int = 0) -> tuple[GraphUNet, DenseGraphUNet]:
+    """A PyG GraphUNet and a DenseGraphUNet holding the same weights, in eval mode."""
+    torch.manual_seed(seed)
+    pyg = GraphUNet(N_FEATURES, HIDDEN, OUT, depth, pool_ratios=0.5, sum_res=sum_res).eval()
+    dense = DenseGraphUNet(N_FEATURES, HIDDEN, OUT, depth, pool_ratio=0.5, sum_res=sum_res,
+                           edge_weight=edge_weight).eval()
+    dense.load_state_dict(state_dict_from_pyg(pyg.state_dict()))
+    return pyg, dense
+
+
+def run_pyg(pyg: GraphUNet, graphs, weight_fn=lambda w: w) -> torch.Tensor:
+    x, edge_index, batch, edge_weight = to_pyg(graphs)
+    with warnings.catch_warnings():  # PyG's augment_adj: "sparse CSR support is in beta"
+        warnings.simplefilter("ignore")
+        return pyg(x, edge_index, batch, weight_fn(edge_weight))
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 40, 129])
+def test_matches_pyg_on_single_graphs(n):
+    pyg, dense = pyg_and_dense()
+    graphs = random_graphs([n], seed=n)
+    batch = pad(graphs)
+    with torch.no_grad():
+        expected = run_pyg(pyg, graphs)
+        got = dense(batch["x"], batch["adj"], batch["node_mask"])[0]
+    assert got.shape == (n, OUT)
+    torch.testing.assert_close(got, expected, atol=TOLERANCE, rtol=TOLERANCE)
+
+
+@pytest.mark.parametrize("depth,sum_res", [(1, True), (2, False), (3, True), (3, False), (4, True)])
+def test_matches_pyg_on_batches_of_different_sizes(depth, sum_res):
+    pyg, dense = pyg_and_dense(depth, sum_res, seed=depth)
+    graphs = random_graphs([50, 13, 1, 31, 2, 64], seed=10 + depth)
+    batch = pad(graphs, n_slots=70)
+    with torch.no_grad():
+        expected = run_pyg(pyg, graphs)
+        got = dense(batch["x"], batch["adj"], batch["node_mask"])
+    torch.testing.assert_close(got[batch["node_mask"]], expected, atol=TOLERANCE, rtol=TOLERANCE)
+
+
+@pytest.mark.parametrize("mode,weight_fn", [
+    ("unit", torch.ones_like),
+    ("inverse", lambda w: 1.0 / w.clamp_min(0.1)),
+])
+def test_edge_weight_modes_match_pyg_given_those_weights(mode, weight_fn):
+    pyg, dense = pyg_and_dense(edge_weight=mode)
+    graphs = random_graphs([30, 12], seed=5)
+    batch = pad(graphs)
+    with torch.no_grad():
+        expected = run_pyg(pyg, graphs, weight_fn)
+        got = dense(batch["x"], batch["adj"], batch["node_mask"])
+        as_distance = DenseGraphUNet(N_FEATURES, HIDDEN, OUT, 3).eval()
+        as_distance.load_state_dict(dense.state_dict())
+        with_lengths = as_distance(batch["x"], batch["adj"], batch["node_mask"])
+    torch.testing.assert_close(got[batch["node_mask"]], expected, atol=TOLERANCE, rtol=TOLERANCE)
+    assert not torch.allclose(got, with_lengths, atol=1e-3)  # the weights do matter
+
+
+def test_more_padding_and_junk_in_padded_slots_change_nothing():
+    _, dense = pyg_and_dense()
+    graphs = random_graphs([20, 9], seed=3)
+    tight = pad(graphs)
+    loose = pad(graphs, n_slots=45)
+    generator = torch.Generator().manual_seed(0)
+    padded = ~loose["node_mask"]
+    loose["x"][padded] = torch.randn(int(padded.sum()), N_FEATURES, generator=generator) * 100
+    junk = torch.rand(loose["adj"].shape, generator=generator) * 5
+    pair_padded = padded.unsqueeze(-1) | padded.unsqueeze(-2)
+    loose["adj"] = torch.where(pair_padded, junk, loose["adj"])
+    with torch.no_grad():
+        out_tight = dense(tight["x"], tight["adj"], tight["node_mask"])
+        out_loose = dense(loose["x"], loose["adj"], loose["node_mask"])
+    assert out_loose.shape == (2, 45, OUT)
+    torch.testing.assert_close(out_loose[:, :20], out_tight, atol=1e-6, rtol=1e-6)
+    assert torch.all(out_loose[padded] == 0)
+    assert torch.all(out_tight[~tight["node_mask"]] == 0)
+
+
+def test_a_graph_gives_the_same_outputs_alone_and_in_a_batch():
+    _, dense = pyg_and_dense()
+    graphs = random_graphs([15, 60, 33], seed=4)
+    batch = pad(graphs)
+    alone = pad(graphs[:1])
+    with torch.no_grad():
+        in_batch = dense(batch["x"], batch["adj"], batch["node_mask"])[0, :15]
+        by_itself = dense(alone["x"], alone["adj"], alone["node_mask"])[0]
+    torch.testing.assert_close(in_batch, by_itself, atol=1e-6, rtol=1e-6)
+
+
+def test_real_nodes_may_sit_anywhere_among_the_slots():
+    _, dense = pyg_and_dense()
+    graph = random_graphs([25], seed=6)[0]
+    front = pad([graph], n_slots=40)
+    slots = torch.randperm(40, generator=torch.Generator().manual_seed(1))[:25]  # where node i goes
+    scattered = {key: torch.zeros_like(value) for key, value in front.items()}
+    scattered["x"][0, slots] = graph.x
+    scattered["adj"][0, slots.unsqueeze(-1), slots.unsqueeze(0)] = graph.adj
+    scattered["node_mask"][0, slots] = True
+    with torch.no_grad():
+        out_front = dense(front["x"], front["adj"], front["node_mask"])[0, :25]
+        out_scattered = dense(scattered["x"], scattered["adj"], scattered["node_mask"])[0]
+    torch.testing.assert_close(out_scattered[slots], out_front, atol=1e-5, rtol=1e-5)
+    assert torch.all(out_scattered[~scattered["node_mask"][0]] == 0)
+
+
+def test_leading_batch_dims_are_flattened_and_restored():
+    _, dense = pyg_and_dense()
+    graphs = random_graphs([10, 4, 12, 7, 9, 1], seed=7)
+    batch = pad(graphs)
+    grid = {key: value.reshape(2, 3, *value.shape[1:]) for key, value in batch.items()}
+    with torch.no_grad():
+        flat = dense(batch["x"], batch["adj"], batch["node_mask"])
+        nested = dense(grid["x"], grid["adj"], grid["node_mask"])
+        single = dense(batch["x"][2], batch["adj"][2], batch["node_mask"][2])
+    assert nested.shape == (2, 3, 12, OUT)
+    assert single.shape == (12, OUT)
+    torch.testing.assert_close(nested.reshape(6, 12, OUT), flat)
+    torch.testing.assert_close(single, flat[2], atol=1e-6, rtol=1e-6)
+
+
+def test_all_padding_gives_zeros():
+    _, dense = pyg_and_dense()
+    out = dense(torch.randn(2, 5, N_FEATURES), torch.rand(2, 5, 5), torch.zeros(2, 5, dtype=torch.bool))
+    assert out.shape == (2, 5, OUT)
+    assert torch.all(out == 0)
+
+
+def test_used_node_slots_is_last_real_node_plus_one():
+    mask = torch.tensor([[True, True, False, False, False], [False, False, True, False, False]])
+    assert used_node_slots(mask) == 3
+    assert used_node_slots(torch.zeros(2, 4, dtype=torch.bool)) == 0
+
+
+def test_topk_keeps_ceil_ratio_of_real_nodes_with_the_best_scores():
+    torch.manual_seed(0)
+    pool = DenseTopKPool(HIDDEN, ratio=0.5)
+    sizes = torch.tensor([7, 1, 4])
+    mask = torch.arange(8) < sizes.unsqueeze(-1)
+    x = torch.randn(3, 8, HIDDEN) * mask.unsqueeze(-1)
+    adj = torch.zeros(3, 8, 8)
+    pooled = pool(x, adj, mask)
+    assert pooled.mask.sum(-1).tolist() == [math.ceil(0.5 * n) for n in sizes.tolist()]
+    score = (x @ pool.weight.t()).squeeze(-1) / pool.weight.norm()
+    for b, n in enumerate(sizes.tolist()):
+        kept = pooled.index[b][pooled.mask[b]]
+        assert torch.all(kept < n)  # never a padded node
+        best = score[b, :n].topk(len(kept)).indices
+        assert set(kept.tolist()) == set(best.tolist())
+        gate = torch.tanh(score[b, kept]).unsqueeze(-1)
+        torch.testing.assert_close(pooled.x[b][pooled.mask[b]], x[b, kept] * gate)
+    assert torch.all(pooled.x[~pooled.mask] == 0)
+
+
+def test_augmented_adjacency_is_the_square_of_a_plus_i_on_kept_nodes():
+    graph = random_graphs([9], seed=8)[0]
+    adj = graph.adj.unsqueeze(0)
+    mask = torch.ones(1, 9, dtype=torch.bool)
+    index = torch.tensor([[4, 0, 7, 2]])
+    kept = torch.tensor([[True, True, True, False]])
+    squared = (graph.adj + torch.eye(9)) @ (graph.adj + torch.eye(9))
+    expected = squared[[4, 0, 7]][:, [4, 0, 7]].clone()
+    expected.fill_diagonal_(0)
+    got = augmented_adjacency(adj, mask, index, kept)[0]
+    torch.testing.assert_close(got[:3, :3], expected)
+    assert torch.all(got[3] == 0) and torch.all(got[:, 3] == 0)
+
+
+def test_gcn_normalize_uses_improved_self_loops_and_leaves_padding_zero():
+    adj = torch.tensor([[[0.0, 0.5, 0.0], [0.5, 0.0, 0.0], [0.0, 0.0, 0.0]]])
+    mask = torch.tensor([[True, True, False]])
+    norm = gcn_normalize(adj, mask)
+    degree = torch.tensor([2.5, 2.5])
+    expected = torch.tensor([[2.0, 0.5], [0.5, 2.0]]) / degree.sqrt().outer(degree.sqrt())
+    torch.testing.assert_close(norm[0, :2, :2], expected)
+    assert torch.all(norm[0, 2] == 0) and torch.all(norm[0, :, 2] == 0)
+
+
+def test_gradients_are_finite_and_reach_every_parameter():
+    _, dense = pyg_and_dense()
+    dense.train()
+    batch = pad(random_graphs([30, 5, 1], seed=9), n_slots=36)
+    out = dense(batch["x"], batch["adj"], batch["node_mask"])
+    out.square().sum().backward()
+    for name, parameter in dense.named_parameters():
+        assert parameter.grad is not None, name
+        assert torch.isfinite(parameter.grad).all(), name
+        assert parameter.grad.abs().sum() > 0, name
