@@ -11,7 +11,7 @@ path), short ones into new space do not (the covariance-propagation shortcut). B
 policies see the same state; nearest frontier's time is its ``choose`` alone (the
 state's Dijkstra is shared by every policy).
 
-    python benchmarks/bench_decision.py [--quick]
+    python benchmarks/bench_decision.py [--quick | --smoke]
 """
 
 from __future__ import annotations
@@ -215,11 +215,13 @@ def main() -> None:
     setup = BenchSetup()
     pose_counts = [50, 100] if args.quick else [50, 100, 200, 400]
     candidate_counts = [2, 5, 10]
+    if args.smoke:  # four small states: enough for the growth fit, no figure to quote
+        setup, pose_counts, candidate_counts = BenchSetup(repeats=1), [30, 50], [2, 5]
     rows = [measure(n, c, setup) for n in pose_counts for c in candidate_counts]
     print_table(rows)
     summary = growth(rows)
     print("growth:", summary)
-    emit({"benchmark": "decision", "quick": args.quick,
+    emit({"benchmark": "decision", "quick": args.quick, "smoke": args.smoke,
           "poses": [r["poses"] for r in rows], "candidates": [r["candidates"] for r in rows],
           "ms_em": [round(r["ms_em"], 2) for r in rows],
           "ms_nearest": [round(r["ms_nearest"], 5) for r in rows],

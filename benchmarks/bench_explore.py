@@ -4,7 +4,7 @@ Splits the time per decision into decide (frontiers, Dijkstra, paths, policy) an
 (LiDAR, registration, iSAM2, maps), and runs the random-frontier policy on the same scene
 and seed as the in-run baseline.
 
-    python benchmarks/bench_explore.py [--quick]
+    python benchmarks/bench_explore.py [--quick | --smoke]
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def explore(policy: str, max_decisions: int, extra: list[str]) -> dict:
 
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
-    max_decisions = 12 if args.quick else 300
+    max_decisions = 2 if args.smoke else 12 if args.quick else 300
     nearest = explore("nearest", max_decisions, [])
     random = explore("random", max_decisions, [])
     for r in (nearest, random):
@@ -58,7 +58,8 @@ def main() -> None:
               f"{r['ms_per_decision']:7.1f} ms/decision (decide {r['ms_decide']:.1f}, drive {r['ms_drive']:.1f})  "
               f"{r['keyframes_per_s']:.1f} kf/s  explored {100 * r['explored']:.1f} %  {r['travel_m']:.1f} m")
     print("per keyframe:", nearest["ms_per_keyframe_by_stage"])
-    emit({"benchmark": "explore", "quick": args.quick, "machine": machine(), **nearest,
+    emit({"benchmark": "explore", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
+          **nearest,
           "baseline_random": random})
 
 

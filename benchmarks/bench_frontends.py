@@ -11,7 +11,7 @@ least 20x faster than icp's; the model's mean ATE, map error and loop-closure co
 the spread (min..max over seeds) of icp's. It also times the parts of the LiDAR stage
 (does model mode still need the 3D LiDAR?).
 
-    python benchmarks/bench_frontends.py [--quick]
+    python benchmarks/bench_frontends.py [--quick | --smoke]
 """
 
 from __future__ import annotations
@@ -213,6 +213,8 @@ def summarise(runs: list[dict]) -> dict:
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
     seeds, goals_limit, draws = ([0, 1, 2], 6, 1) if args.quick else ([0, 1, 2, 3, 4], None, 2)
+    if args.smoke:  # one seed, the first two goals, a few LiDAR poses
+        seeds, goals_limit, draws = [0], 2, 1
     runs = []
     for seed in seeds:
         runs.append(run_seed(seed, goals_limit, draws))
@@ -224,9 +226,10 @@ def main() -> None:
                       f"degenerate {row['degenerate_registrations']:3d}  {row['ms_per_keyframe']:.1f} ms/kf  "
                       f"SLAM stage {row['ms_slam_stage']:.2f} ms/kf", flush=True)
     summary = summarise(runs)
-    summary["lidar_stage_ms"] = lidar_breakdown()
+    summary["lidar_stage_ms"] = lidar_breakdown(n=3 if args.smoke else 40)
     print("LiDAR stage parts (ms per keyframe):", summary["lidar_stage_ms"])
-    emit({"benchmark": "frontends", "quick": args.quick, "machine": machine(), **summary, "per_seed": runs})
+    emit({"benchmark": "frontends", "quick": args.quick, "smoke": args.smoke, "machine": machine(), **summary,
+          "per_seed": runs})
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ pinned to one core (the target is quoted per core); `ms_per_scan_multiray_only` 
 `mj_multiRay` call alone, without the noise and point assembly of a scan, on the
 LiDAR's tile models and (`..._full_model`, the baseline for the tiles) on the full scene.
 
-    python benchmarks/bench_lidar.py [--quick]
+    python benchmarks/bench_lidar.py [--quick | --smoke]
 """
 
 from __future__ import annotations
@@ -154,7 +154,7 @@ def bench_scene(name: str, config: SceneConfig, poses_count: int, loop_count: in
 
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
-    poses_count, loop_count = (6, 2) if args.quick else (30, 5)
+    poses_count, loop_count = (2, 1) if args.smoke else (6, 2) if args.quick else (30, 5)
     core = pin_to_one_core()
     results = [bench_scene(n, c, poses_count, loop_count) for n, c in SCENES.items()]
     for r in results:
@@ -162,7 +162,8 @@ def main() -> None:
               f"({r['mrays_per_s']:.2f} Mrays/s)  mj_ray loop {r['ms_per_scan_mj_ray_loop']:.1f} ms "
               f"(x{r['speedup_vs_loop']})  numpy {r['ms_per_scan_analytic_numpy']:.1f} ms  "
               f"max diff {r['max_abs_diff_m']:.1e} m")
-    emit({"benchmark": "lidar", "quick": args.quick, "machine": machine(), "pinned_core": core,
+    emit({"benchmark": "lidar", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
+          "pinned_core": core,
           "all_meet_4_mrays_per_s": all(r["meets_4_mrays_per_s"] for r in results), "results": results})
 
 

@@ -13,7 +13,7 @@ pose above 0.3 m or 3 deg. Targets (issue 4): no false closure, at least one tru
 per trajectory, lower ATE and map error than without loop closures, at least 10
 keyframes/s end to end (one thread: BLAS/OpenMP pools are pinned to one thread below).
 
-    python benchmarks/bench_slam.py [--quick]
+    python benchmarks/bench_slam.py [--quick | --smoke]
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from explore_rl.scene.build import make_scene  # noqa: E402
 from explore_rl.sensors.lidar import Lidar  # noqa: E402
 from explore_rl.slam.loop_closure import SOURCES  # noqa: E402
 from explore_rl.slam.session import SlamSession  # noqa: E402
-from explore_rl.tour import TourRun, drive_with_slam, plan_tour  # noqa: E402
+from explore_rl.tour import TourRun, drive_with_slam, plan_tour, tour_paths  # noqa: E402
 
 FALSE_TRANSLATION = 0.3  # m
 FALSE_ROTATION_DEG = 3.0
@@ -186,8 +186,12 @@ def summarise(runs: list[dict]) -> dict:
 
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
-    # --quick: the first 6 goals (the west loop and the first return to the start).
-    seeds, goals_limit = ([0, 1, 2], 6) if args.quick else ([0, 1, 2, 3, 4], None)
+    # --quick: the first 6 goals (the west loop and the first return to the start);
+    # --smoke: one seed, the first 4 goals (loop-closure attempts, no closure yet).
+    if args.smoke:
+        seeds, goals_limit = [0], 4
+    else:
+        seeds, goals_limit = ([0, 1, 2], 6) if args.quick else ([0, 1, 2, 3, 4], None)
     runs = [run_seed(seed, goals_limit, ["slam=icp"]) for seed in seeds]
     for r in runs:
         print(f"seed {r['seed']}: {r['status']:8s} {r['travel_m']:6.1f} m {r['keyframes']:4d} kf  "
@@ -200,7 +204,8 @@ def main() -> None:
               f"{r['keyframes_per_s']:.1f} kf/s")
     summary = summarise(runs)
     print("per-keyframe stages (ms):", summary["stage_ms_per_keyframe"])
-    emit({"benchmark": "slam", "quick": args.quick, "machine": machine(), **summary, "per_seed": runs})
+    emit({"benchmark": "slam", "quick": args.quick, "smoke": args.smoke, "machine": machine(), **summary,
+          "per_seed": runs})
 
 
 if __name__ == "__main__":

@@ -11,7 +11,7 @@ each variant (a set of Hydra overrides; the first is the baseline). Per variant:
 decisions per run, decisions, explored fraction, travel, map error and how the runs
 ended. The last stdout line is JSON.
 
-    python benchmarks/study_inflation.py [--quick] [--seeds 4] [--workers 2]
+    python benchmarks/study_inflation.py [--quick | --smoke] [--seeds 4] [--workers 2]
         [--variants "" "mapping.paths.inflation_margin=0.1" "mapping.paths.clearance_weight=10" ...]
 """
 
@@ -35,8 +35,8 @@ DEFAULT_VARIANTS = ["", "mapping.paths.inflation_margin=0.1", "mapping.paths.inf
                     "mapping.paths.clearance_weight=5", "mapping.paths.clearance_weight=20"]
 
 
-def run(scene: str, seed: int, variant: str) -> dict:
-    result = explore_once(scene, "nearest", seed, "model", tuple(variant.split()))
+def run(scene: str, seed: int, variant: str, extra: tuple[str, ...] = ()) -> dict:
+    result = explore_once(scene, "nearest", seed, "model", (*variant.split(), *extra))
     statuses = [row["path_status"] for row in result.pop("rows")]
     return {**result, "variant": variant, "blocked": statuses.count("blocked")}
 
@@ -60,6 +60,8 @@ def summarise(runs: list[dict], variants: list[str]) -> list[dict]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="1 seed, the first two variants")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: office, 1 seed, the first two variants, 2 decisions, 1 worker")
     parser.add_argument("--variants", nargs="+", default=DEFAULT_VARIANTS,
                         help="each a space-separated list of Hydra overrides ('' = the defaults)")
     parser.add_argument("--seeds", type=int, default=4)
@@ -74,9 +76,12 @@ def main() -> None:
             load_config(variant.split())
         except Exception as error:  # Hydra's override errors and our validation's
             parser.error(f"bad --variants entry {variant!r}: {error}")
-    variants, seeds = (args.variants[:2], 1) if args.quick else (args.variants, args.seeds)
-    jobs = [(scene, seed, variant) for variant in variants for scene in SCENES for seed in range(seeds)]
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+    variants, seeds = (args.variants[:2], 1) if args.quick or args.smoke else (args.variants, args.seeds)
+    scenes, extra, workers = SCENES, (), args.workers
+    if args.smoke:
+        scenes, extra, workers = ["office"], ("explore.max_decisions=2",), 1
+    jobs = [(scene, seed, variant, extra) for variant in variants for scene in scenes for seed in range(seeds)]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
         runs = list(pool.map(run, *zip(*jobs)))
     table = summarise(runs, variants)
     print(f"{'variant':36} {'scene':8} {'blocked/run':>11} {'blocked/dec':>11} {'decisions':>9} "
@@ -93,7 +98,7 @@ def main() -> None:
             "travel_m": round(float(np.mean([t["travel_m"] for t in rows])), 2),
             "no_reachable_frontier_runs": sum(t["ends"].get("no_reachable_frontier", 0) for t in rows),
         }
-    emit({"benchmark": "inflation", "quick": args.quick, "machine": machine(), "seeds": seeds,
+    emit({"benchmark": "inflation", "quick": args.quick, "smoke": args.smoke, "machine": machine(), "seeds": seeds,
           "baseline": variants[0] or "baseline", "per_variant": per_variant, "table": table})
 
 

@@ -8,12 +8,13 @@ raw per-decision CSVs. The last stdout line is JSON with the table and the order
 * EM ends with lower map error than nearest frontier (paper: EM has the lowest error);
 * nearest frontier covers the most ground per metre; random covers the least.
 
-    python benchmarks/study_ordering.py [--quick] [--seeds 5] [--frontend icp] [--workers 2] [--resume]
+    python benchmarks/study_ordering.py [--quick | --smoke] [--seeds 5] [--frontend icp] [--workers 2] [--resume]
                                         [--override planning.reward.alpha=1 ...] [--out DIR]
 
 Every finished run is appended to ``results/ordering_runs.jsonl`` as it completes;
 ``--resume`` continues an interrupted study and ``--summarise-only`` rebuilds the table
-and plots from that log.
+and plots from that log. ``--quick`` and ``--smoke`` write to a temporary directory
+(``--smoke``: to ``--out`` if given), never to ``results/``.
 """
 
 from __future__ import annotations
@@ -141,11 +142,14 @@ def write_tables(runs: list[dict], table: list[dict], out: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="street only, 1 seed, 6 decisions")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: street, 1 seed, 2 decisions, slam=model, 1 worker; "
+                             "writes tables and plots to --out (default: a temporary directory)")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--scenes", nargs="+", default=["street", "garage"])
     parser.add_argument("--frontend", default="icp", choices=["icp", "model"])
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--out", default=str(RESULTS))
+    parser.add_argument("--out", default=None, help=f"default {RESULTS}")
     parser.add_argument("--override", nargs="*", default=[],
                         help="Hydra overrides for every run, e.g. planning.reward.alpha=1")
     parser.add_argument("--resume", action="store_true", help="keep runs already in ordering_runs.jsonl")
@@ -155,6 +159,11 @@ def main() -> None:
     if args.quick:
         scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=6", *args.override)
         args.out = tempfile.mkdtemp(prefix="ordering_quick_")  # never touch the committed results
+    elif args.smoke:
+        scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=2", *args.override)
+        args.frontend, args.workers = "model", 1
+        args.out = args.out or tempfile.mkdtemp(prefix="ordering_smoke_")
+    args.out = args.out or str(RESULTS)
     args.resume = args.resume or args.summarise_only
     # seed-major order: an interrupted study still holds whole (scene, policy) sets per seed
     jobs = [(scene, policy, seed, args.frontend, extra) for seed in seeds for scene in scenes for policy in POLICIES]
@@ -183,8 +192,8 @@ def main() -> None:
     if not args.quick:
         write_tables(runs, table, out)
         (out / "ordering_summary.json").write_text(json.dumps({"table": table, "checks": checks}, indent=1))
-    emit({"benchmark": "ordering", "quick": args.quick, "frontend": args.frontend, "seeds": len(seeds),
-          "machine": machine(), "table": table, "checks": checks, "plots": plots})
+    emit({"benchmark": "ordering", "quick": args.quick, "smoke": args.smoke, "frontend": args.frontend,
+          "seeds": len(seeds), "machine": machine(), "table": table, "checks": checks, "plots": plots})
 
 
 if __name__ == "__main__":

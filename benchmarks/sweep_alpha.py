@@ -6,7 +6,7 @@ The chosen default is the alpha with the lowest mean map error among those whose
 travel stays within ``--travel-factor`` of nearest frontier's (documented in
 benchmarks/RESULTS.md). Last line JSON.
 
-    python benchmarks/sweep_alpha.py [--quick] [--alphas 0.3 1 3 10 30] [--starts 0 3 6]
+    python benchmarks/sweep_alpha.py [--quick | --smoke] [--alphas 0.3 1 3 10 30] [--starts 0 3 6]
 """
 
 from __future__ import annotations
@@ -41,6 +41,8 @@ def explore_once(policy: str, alpha: float, start: int, frontend: str, max_decis
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the first alpha, the first start, 2 decisions, slam=model, 1 worker")
     parser.add_argument("--alphas", type=float, nargs="+", default=[0.3, 1.0, 3.0, 10.0, 30.0])
     parser.add_argument("--starts", type=int, nargs="+", default=[0, 3, 6])
     parser.add_argument("--frontend", default="icp", choices=["icp", "model"])
@@ -50,6 +52,9 @@ def main() -> None:
     alphas, starts, max_decisions = args.alphas, args.starts, 300
     if args.quick:
         alphas, starts, max_decisions = alphas[:2], starts[:1], 5
+    if args.smoke:
+        alphas, starts, max_decisions = alphas[:1], starts[:1], 2
+        args.frontend, args.workers = "model", 1
     jobs = [("nearest", 0.0, s) for s in starts] + [("em", a, s) for a in alphas for s in starts]
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         runs = list(pool.map(explore_once, *zip(*jobs), [args.frontend] * len(jobs), [max_decisions] * len(jobs)))
@@ -67,7 +72,8 @@ def main() -> None:
     for r in rows:
         print(f"alpha {r['alpha']:6.2f}: travel {r['travel_m']:6.1f} m  map error {r['map_error_m']:.3f} m  "
               f"explored {100 * r['explored']:.1f} %  loops {r['loop_closures']:.1f}")
-    emit({"benchmark": "sweep_alpha", "quick": args.quick, "machine": machine(), "starts": starts,
+    emit({"benchmark": "sweep_alpha", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
+          "starts": starts,
           "nearest_travel_m": baseline_travel, "nearest_map_error_m": mean("nearest", 0.0, "map_error_m"),
           "rows": rows, "chosen_alpha": best["alpha"], "runs": runs})
 

@@ -21,7 +21,11 @@ Fits, per source (pose matching, segment matching):
 (the logistic fit; clamped to the searched range). Writes
 ``conf/calibration/loop_closures.yaml`` (format at its top) and the attempt log as CSV.
 
-    python scripts/calibrate_loop_closures.py [--seeds 0-7] [--quick] [--explore street]
+    python scripts/calibrate_loop_closures.py [--seeds 0-7] [--quick | --smoke] [--explore street]
+
+The last stdout line is JSON (r_lc and the revisit counts). ``--smoke`` (a few seconds:
+seed 0, the tour's first 4 goals) writes to a temporary directory unless ``--out`` and
+``--csv`` are given, never to ``conf/calibration``.
 """
 
 from __future__ import annotations
@@ -29,7 +33,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import json
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -106,12 +112,12 @@ def calibration_config(seed: int, scene_overrides: list[str]):
     return config
 
 
-def run_tour_attempts(seed: int) -> tuple[list[LoopClosureAttempt], dict]:
+def run_tour_attempts(seed: int, goals_limit: int | None = None) -> tuple[list[LoopClosureAttempt], dict]:
     from explore_rl.tour import run_tour
 
     config = calibration_config(seed, [])
     start = time.perf_counter()
-    run = run_tour(config)
+    run = run_tour(config, goals_limit)
     session = run.session
     info = {"seed": seed, "kind": "tour", "status": run.status.value, "keyframes": len(session.keyframes),
             "seconds": round(time.perf_counter() - start, 1)}
@@ -248,15 +254,26 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-7", help="e.g. 0-7 or 0,2,5")
     parser.add_argument("--quick", action="store_true", help="seeds 0-1 only")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: seed 0, the tour's first 4 goals, no exploration; "
+                             "writes to a temporary directory unless --out/--csv are given")
     parser.add_argument("--explore", default="", help="also explore these scenes, e.g. street,garage")
-    parser.add_argument("--out", default=str(OUT))
-    parser.add_argument("--csv", default=str(CSV))
+    parser.add_argument("--out", default=None, help=f"default {OUT}")
+    parser.add_argument("--csv", default=None, help=f"default {CSV}")
     args = parser.parse_args()
     seeds = [0, 1] if args.quick else parse_seeds(args.seeds)
+    goals_limit = None
+    if args.smoke:  # never overwrite the committed calibration
+        seeds, goals_limit, args.explore = [0], 4, ""
+        if args.out is None or args.csv is None:
+            scratch = Path(tempfile.mkdtemp(prefix="calibrate_loop_closures_smoke_"))
+            args.out = args.out or str(scratch / "loop_closures.yaml")
+            args.csv = args.csv or str(scratch / "loop_closure_attempts.csv")
+    args.out, args.csv = args.out or str(OUT), args.csv or str(CSV)
 
     runs, infos = [], []
     for seed in seeds:
-        attempts, info = run_tour_attempts(seed)
+        attempts, info = run_tour_attempts(seed, goals_limit)
         runs.append(attempts)
         infos.append(info)
         print(f"tour seed {seed}: {info['status']}, {info['keyframes']} keyframes, "
@@ -307,6 +324,13 @@ def main() -> None:
                      zip(table["bin_edges_m"][:-1], table["bin_edges_m"][1:], table["accepted"], count) if c]
             print(f"  {name}: " + ", ".join(cells))
     print(f"wrote {out} and {args.csv}")
+    print(json.dumps({
+        "script": "calibrate_loop_closures", "quick": args.quick, "smoke": args.smoke, "seeds": seeds,
+        "r_lc": result["r_lc"], "attempts": sum(a.registered for run in runs for a in run),
+        **{f"{kind}_{source}": fit[kind] for source, fit in sources.items()
+           for kind in ("revisits", "accepted_revisits")},
+        "false_closures": sum(fit["accepted_error"]["false_closures"] for fit in sources.values()),
+        "out": str(out), "csv": str(args.csv)}), flush=True)
 
 
 if __name__ == "__main__":

@@ -22,14 +22,20 @@ for the format):
   chi-square quantile).
 
     python scripts/calibrate_scan_matching.py [--tour-seeds 0-5] [--explore-seeds 0-1]
-        [--scenes office,street,garage] [--max-decisions 40] [--out PATH] [--quick]
+        [--scenes office,street,garage] [--max-decisions 40] [--out PATH] [--quick | --smoke]
+
+The last stdout line is JSON (the fit's honesty figures). ``--smoke`` (a few seconds: the
+tour's first 2 goals on seed 0 and a 2-decision office exploration) writes to a temporary
+directory unless ``--out`` is given, never to ``conf/calibration``.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import json
 import sys
+import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -170,7 +176,7 @@ def icp_without_loops(overrides: list[str]):
 
 
 def collect(tour_seeds: list[int], explore_seeds: list[int], scenes: list[str], max_decisions: int,
-            overrides: list[str]) -> tuple[list[Record], list[dict], object]:
+            overrides: list[str], goals_limit: int | None = None) -> tuple[list[Record], list[dict], object]:
     from explore_rl.runner import Explorer
     from explore_rl.tour import run_tour
 
@@ -181,7 +187,7 @@ def collect(tour_seeds: list[int], explore_seeds: list[int], scenes: list[str], 
         config = icp_without_loops([f"seed={seed}", *overrides])
         start = time.perf_counter()
         with recording(records, f"tour/office/{seed}", config.lidar.mount_height):
-            run = run_tour(config)
+            run = run_tour(config, goals_limit)
         runs.append(_run_summary(f"tour/office/{seed}", run.session, time.perf_counter() - start))
         print(runs[-1], flush=True)
     for scene in scenes:
@@ -415,15 +421,25 @@ def main() -> None:
     parser.add_argument("--explore-seeds", default="0-1")
     parser.add_argument("--scenes", default="office,street,garage")
     parser.add_argument("--max-decisions", type=int, default=40)
-    parser.add_argument("--out", default=str(SCAN_MATCHING_FILE))
+    parser.add_argument("--out", default=None, help=f"default {SCAN_MATCHING_FILE}")
     parser.add_argument("--quick", action="store_true", help="two tour seeds, no exploration")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: seed 0, the tour's first 2 goals, a 2-decision office exploration; "
+                             "writes to a temporary directory unless --out is given")
     parser.add_argument("overrides", nargs="*", help="Hydra overrides for the icp runs")
     args = parser.parse_args()
     tour_seeds = [0, 1] if args.quick else parse_seeds(args.tour_seeds)
     explore_seeds = [] if args.quick else parse_seeds(args.explore_seeds)
     scenes = [s for s in args.scenes.split(",") if s]
+    goals_limit = None
+    if args.smoke:  # never overwrite the committed calibration
+        tour_seeds, explore_seeds, scenes, args.max_decisions, goals_limit = [0], [0], ["office"], 2, 2
+        args.out = args.out or str(Path(tempfile.mkdtemp(prefix="calibrate_scan_matching_smoke_"))
+                                   / "scan_matching.yaml")
+    args.out = args.out or str(SCAN_MATCHING_FILE)
 
-    records, runs, config = collect(tour_seeds, explore_seeds, scenes, args.max_decisions, args.overrides)
+    records, runs, config = collect(tour_seeds, explore_seeds, scenes, args.max_decisions, args.overrides,
+                                    goals_limit)
     calibration = fit(records, config.slam.scan_matcher)
     calibration["statistic"].update(
         min_height=float(config.mapping.occupancy.obstacle_min_height),
@@ -448,6 +464,10 @@ def main() -> None:
     load_scan_matching(out)  # what we wrote must load
     print(yaml.safe_dump({"fit": calibration["fit"]}, sort_keys=False))
     print(f"wrote {out} ({len(records)} matches from {len(runs)} runs)")
+    figures = ("matches", "degenerate_fraction", "mahalanobis_d2_per_dof", "fraction_above_chi2_99")
+    print(json.dumps({"script": "calibrate_scan_matching", "quick": args.quick, "smoke": args.smoke,
+                      "runs": len(runs), **{k: calibration["fit"][k] for k in figures}, "out": str(out)}),
+          flush=True)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,39 @@
+"""Run a benchmark or study script as a user would and read its JSON last line.
+
+Shared by the smoke tests of ``benchmarks/`` and ``scripts/``: the script runs in a
+subprocess with this interpreter, one BLAS/OpenMP thread (the suite runs ``-n 2`` on two
+cores) and the working directory ``cwd`` (a tmp dir, so nothing lands in the checkout).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run_script(script: str, *args: str, cwd: Path, timeout: float = 120.0) -> dict:
+    """Run ``ROOT/script args``; fail unless it exits 0 with a JSON object as its last
+    stdout line, and return that object."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+           "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1"}
+    command = [sys.executable, str(ROOT / script), *args]
+    proc = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    shown = f"$ {' '.join(command)}\n--- stdout (tail) ---\n{proc.stdout[-2000:]}\n--- stderr (tail) ---\n" \
+            f"{proc.stderr[-4000:]}"
+    if proc.returncode != 0:
+        pytest.fail(f"{script} exited with {proc.returncode}\n{shown}", pytrace=False)
+    lines = proc.stdout.strip().splitlines()
+    try:
+        result = json.loads(lines[-1]) if lines else None
+    except json.JSONDecodeError as error:
+        pytest.fail(f"{script}: the last stdout line is not JSON ({error})\n{shown}", pytrace=False)
+    if not isinstance(result, dict):
+        pytest.fail(f"{script}: the last stdout line is not a JSON object\n{shown}", pytrace=False)
+    return result

@@ -1,0 +1,63 @@
+"""Smoke tests: every benchmark, study and calibration script runs end to end in its
+``--smoke`` size (a few seconds) and prints its key figures as a JSON last line.
+
+They check that the scripts run, not their figures. Outputs go to ``tmp_path``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.benchmarks.smoke import run_script
+
+# script, extra arguments ({tmp} = the test's tmp dir), keys the JSON last line must hold
+SCRIPTS = [
+    ("benchmarks/bench_decision.py", [], ["ms_em", "ms_nearest", "poses", "candidates", "growth"]),
+    ("benchmarks/bench_explore.py", [], ["ms_per_decision", "ms_decide", "ms_drive", "keyframes_per_s",
+                                         "explored", "baseline_random"]),
+    ("benchmarks/bench_frontends.py", [], ["ms_slam_stage_icp", "ms_slam_stage_model", "slam_stage_ratio",
+                                           "ate_m_icp", "ate_m_model", "fidelity_ok", "lidar_stage_ms"]),
+    ("benchmarks/bench_lidar.py", [], ["results", "all_meet_4_mrays_per_s"]),
+    ("benchmarks/bench_slam.py", [], ["keyframes_per_s", "ate_m", "ate_m_no_loops", "ate_m_odometry",
+                                      "map_error_m", "loop_closures", "false_loop_closures", "attempts"]),
+    ("benchmarks/study_inflation.py", [], ["baseline", "per_variant", "table"]),
+    ("benchmarks/study_ordering.py", ["--out", "{tmp}/ordering"], ["table", "checks", "plots"]),
+    ("benchmarks/sweep_alpha.py", [], ["nearest_travel_m", "nearest_map_error_m", "rows", "chosen_alpha"]),
+    ("scripts/calibrate_loop_closures.py",
+     ["--out", "{tmp}/loop_closures.yaml", "--csv", "{tmp}/attempts.csv"],
+     ["r_lc", "attempts", "revisits_pose_matching", "accepted_revisits_pose_matching", "false_closures"]),
+    ("scripts/calibrate_scan_matching.py", ["--out", "{tmp}/scan_matching.yaml"],
+     ["matches", "degenerate_fraction", "mahalanobis_d2_per_dof", "fraction_above_chi2_99"]),
+]
+
+# files the smoke run must have written into the tmp dir
+OUTPUTS = {
+    "benchmarks/study_ordering.py": ["ordering/ordering_table.md", "ordering/ordering_runs.jsonl",
+                                     "ordering/ordering_street.png"],
+    "scripts/calibrate_loop_closures.py": ["loop_closures.yaml", "attempts.csv"],
+    "scripts/calibrate_scan_matching.py": ["scan_matching.yaml"],
+}
+
+
+@pytest.mark.parametrize(("script", "args", "keys"), SCRIPTS, ids=[Path(s).stem for s, _, _ in SCRIPTS])
+def test_script_smoke(script: str, args: list[str], keys: list[str], tmp_path: Path) -> None:
+    result = run_script(script, "--smoke", *(a.format(tmp=tmp_path) for a in args), cwd=tmp_path)
+    assert result.get("smoke") is True, f"{script} did not report a smoke run: {sorted(result)}"
+    missing = [k for k in keys if k not in result]
+    assert not missing, f"{script}: JSON last line lacks {missing} (has {sorted(result)})"
+    for name in OUTPUTS.get(script, []):
+        assert (tmp_path / name).is_file(), f"{script} --smoke did not write {name} into the tmp dir"
+
+
+def test_every_script_has_a_smoke_test() -> None:
+    """A new script in benchmarks/ or scripts/ needs a smoke test: a row above or a test
+    module in this directory that names it."""
+    here = Path(__file__).resolve().parent
+    root = here.parents[1]
+    scripts = {p.name for d in ("benchmarks", "scripts") for p in (root / d).glob("*.py")
+               if "__main__" in p.read_text()}
+    tests = " ".join(p.read_text() for p in here.glob("test_*.py"))
+    missing = sorted(name for name in scripts if name not in tests)
+    assert not missing, f"scripts without a smoke test in tests/benchmarks/: {missing}"
