@@ -1,0 +1,94 @@
+"""The actor and the critic: two g-U-Nets, each followed by dropout and an MLP (paper Sec. III-A).
+
+* :class:`GraphActor` scores every node; TorchRL's ``MaskedCategorical`` turns the scores of
+  the frontier nodes (``action_mask``) into the policy, so the action is a node index.
+* :class:`GraphCritic` scores every node and averages the real nodes' scores into V(G).
+
+Both read the padded tensors of ``explore_rl.graph.encode``: ``x[..., N, F]``,
+``adj[..., N, N]`` and ``node_mask[..., N]``; any leading batch dims (e.g. TorchRL's
+``[workers, T]``) are kept. :func:`make_actor` and :func:`make_critic` wrap them as
+TorchRL modules that read and write those tensordict keys.
+"""
+
+from __future__ import annotations
+
+from tensordict.nn import TensorDictModule
+from torch import Tensor, nn
+from torchrl.data import TensorSpec
+from torchrl.modules import MaskedCategorical, ProbabilisticActor, ValueOperator
+
+from explore_rl.models.config import ModelConfig
+from explore_rl.models.graph_unet import DenseGraphUNet
+
+OBSERVATION_KEYS = ["x", "adj", "node_mask"]
+ACTION_MASK_KEY = "action_mask"
+
+
+def make_unet(config: ModelConfig, n_features: int) -> DenseGraphUNet:
+    """The g-U-Net of ``config``; its last layer has ``config.hidden`` output features."""
+    return DenseGraphUNet(n_features, config.hidden, config.hidden, config.depth,
+                          pool_ratio=config.pool_ratio, sum_res=config.sum_res,
+                          edge_weight=config.edge_weight, min_edge_length=config.min_edge_length)
+
+
+def make_node_head(config: ModelConfig) -> nn.Sequential:
+    """ReLU -> dropout -> MLP, one scalar per node. The U-Net's last GCN layer is linear;
+    the ReLU before the head follows the authors' code. ``mlp_hidden=0``: one linear layer."""
+    if config.mlp_hidden == 0:
+        mlp = [nn.Linear(config.hidden, 1)]
+    else:
+        mlp = [nn.Linear(config.hidden, config.mlp_hidden), nn.ReLU(), nn.Linear(config.mlp_hidden, 1)]
+    return nn.Sequential(nn.ReLU(), nn.Dropout(config.dropout), *mlp)
+
+
+class GraphActor(nn.Module):
+    """One logit per node, ``[..., N]``; padded nodes get logit 0 (finite, and masked
+    away by ``MaskedCategorical`` anyway)."""
+
+    def __init__(self, config: ModelConfig, n_features: int):
+        super().__init__()
+        self.unet = make_unet(config, n_features)
+        self.head = make_node_head(config)
+
+    def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
+        logits = self.head(self.unet(x, adj, node_mask)).squeeze(-1)
+        return logits.masked_fill(~node_mask.bool(), 0.0)
+
+
+class GraphCritic(nn.Module):
+    """V(G), ``[..., 1]``: the mean of a per-node score over the graph's real nodes."""
+
+    def __init__(self, config: ModelConfig, n_features: int):
+        super().__init__()
+        self.unet = make_unet(config, n_features)
+        self.head = make_node_head(config)
+
+    def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
+        scores = self.head(self.unet(x, adj, node_mask)).squeeze(-1)
+        return masked_mean(scores, node_mask.bool()).unsqueeze(-1)
+
+
+def masked_mean(values: Tensor, mask: Tensor) -> Tensor:
+    """Mean of ``values[..., N]`` over the True entries of ``mask``; 0 for an empty graph."""
+    weights = mask.to(values.dtype)
+    return (values * weights).sum(-1) / weights.sum(-1).clamp_min(1.0)
+
+
+def make_actor(config: ModelConfig, n_features: int, action_spec: TensorSpec | None = None,
+               return_log_prob: bool = True) -> ProbabilisticActor:
+    """The policy as a TorchRL actor: reads ``x``, ``adj``, ``node_mask``, ``action_mask``;
+    writes ``logits``, ``action`` (a node index) and, by default, its log-probability.
+    Outside ``set_exploration_type(RANDOM)`` (collectors set it) it picks the best node."""
+    config.validate()
+    module = TensorDictModule(GraphActor(config, n_features), in_keys=OBSERVATION_KEYS,
+                              out_keys=["logits"])
+    return ProbabilisticActor(module, in_keys={"logits": "logits", "mask": ACTION_MASK_KEY},
+                              out_keys=["action"], spec=action_spec,
+                              distribution_class=MaskedCategorical, return_log_prob=return_log_prob)
+
+
+def make_critic(config: ModelConfig, n_features: int) -> ValueOperator:
+    """The value function as a TorchRL ``ValueOperator`` writing ``state_value``."""
+    config.validate()
+    return ValueOperator(GraphCritic(config, n_features), in_keys=OBSERVATION_KEYS,
+                         out_keys=["state_value"])
