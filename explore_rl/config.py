@@ -13,6 +13,8 @@ from typing import Optional, Sequence
 
 from hydra.core.config_store import ConfigStore
 
+from explore_rl.envs.config import EnvConfig
+from explore_rl.graph.config import GraphConfig
 from explore_rl.mapping.config import MappingConfig
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.policies import PolicyConfig
@@ -47,6 +49,8 @@ class Config:
     explore: ExploreConfig = field(default_factory=ExploreConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     compare: CompareConfig = field(default_factory=CompareConfig)
+    graph: GraphConfig = field(default_factory=GraphConfig)
+    env: EnvConfig = field(default_factory=EnvConfig)
 
 
 def register_configs() -> None:
@@ -104,6 +108,15 @@ def validate(config: Config) -> None:
         raise ValueError(f"lidar.channels must be >= 1, got {config.lidar.channels}")
     if config.explore.escape.directions < 2:
         raise ValueError(f"explore.escape.directions must be >= 2, got {config.explore.escape.directions}")
+    if config.env.starts not in ("auto", "cycle", "sample", "default"):
+        raise ValueError(f"env.starts={config.env.starts!r}: choose auto, cycle, sample or default")
+    if config.planning.actions.kind not in ("graph", "nearest"):
+        raise ValueError(f"planning.actions.kind={config.planning.actions.kind!r}: choose graph or nearest")
+    if config.planning.actions.max_frontiers < 1:
+        raise ValueError(f"planning.actions.max_frontiers must be >= 1, got {config.planning.actions.max_frontiers}")
+    if config.graph.max_nodes <= config.planning.actions.max_frontiers:
+        raise ValueError(f"graph.max_nodes={config.graph.max_nodes} must exceed planning.actions.max_frontiers="
+                         f"{config.planning.actions.max_frontiers} (the current pose and every frontier are nodes)")
     if config.lidar.tile_size < 0:
         raise ValueError(f"lidar.tile_size must be >= 0 (0 = cast on the full scene model), "
                          f"got {config.lidar.tile_size}")

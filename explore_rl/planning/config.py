@@ -65,9 +65,24 @@ class EMConfig:
 
 
 @dataclass
+class ActionSetConfig:
+    """Which frontiers a decision offers (explore_rl/planning/actions.py): one set for the
+    exploration graph, the EM planner and the Algorithm 1 reward."""
+
+    # graph: the paper's set, the nearest frontier + every frontier whose path closes a loop;
+    # nearest: the max_frontiers shortest-path frontiers alone
+    kind: str = "graph"
+    # also offer this many shortest-path frontiers (studies; 0 = the paper's set)
+    extra_nearest: int = 0
+    # at most this many frontiers, nearest first then by path length (bounds EM's cost)
+    max_frontiers: int = 10
+
+
+@dataclass
 class PlanningConfig:
     """The ``planning`` config group."""
 
+    actions: ActionSetConfig = field(default_factory=ActionSetConfig)
     virtual_map: VirtualMapConfig = field(default_factory=VirtualMapConfig)
     revisits: RevisitConfig = field(default_factory=RevisitConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)

@@ -29,10 +29,11 @@ import numpy as np
 
 from explore_rl.geometry import rotation_2d, se2_between, se2_to_matrix
 from explore_rl.grid import GridSpec
+from explore_rl.planning.actions import Action, PathPrediction, predict_path, select_actions
 from explore_rl.planning.config import EMConfig, PlanningConfig
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.reward import normalize_rewards, raw_reward
-from explore_rl.planning.revisits import Revisit, predict_revisits, sample_path
+from explore_rl.planning.revisits import Revisit
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     fuse_in_order,
@@ -272,6 +273,22 @@ class EMEvaluation:
         return normalize_rewards(self.raw, self.nearest, planning.reward)
 
 
+def make_decision_context(state: ExplorationState, vmap: VirtualMap) -> DecisionContext:
+    """Old marginals, what each keyframe sees on the virtual map and the map itself (U0):
+    what every candidate of one decision shares (also the exploration graph's features)."""
+    session = state.session
+    graph = session.graph
+    blocked = session.occupancy.known_occupied
+    poses = graph.poses_se2()
+    pose_covs = world_covariances(graph, poses)
+    observations = Observations.of(vmap, poses, blocked)
+    landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
+    keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
+    return DecisionContext(graph, vmap, blocked, float(state.travel),
+                           float(session.config.keyframe_distance), poses, pose_covs,
+                           keyframe_travel, observations, landmark_covs, vmap.utility(landmark_covs))
+
+
 # ---------------------------------------------------------------------- the planner
 
 
@@ -295,14 +312,20 @@ class EMPlanner:
         self.last_evaluation = self.evaluate(state)
         return self.last_evaluation.chosen
 
-    def evaluate(self, state: ExplorationState) -> EMEvaluation:
-        """Utility terms of the (at most ``max_candidates``) nearest candidates."""
+    def evaluate(self, state: ExplorationState, actions: list[Action] | None = None,
+                 context: DecisionContext | None = None) -> EMEvaluation:
+        """Utility terms of every frontier in the action set (``planning.actions``).
+
+        ``actions`` and ``context`` may be passed in when the caller already has them (the
+        environment builds its exploration graph from the same ones).
+        """
         start = time.perf_counter()
-        indices = self.candidate_indices(state)
-        context = self.decision_context(state)
+        actions = self.actions(state) if actions is None else actions
+        context = self.decision_context(state) if context is None else context
+        indices = np.array([a.candidate for a in actions], dtype=int)
         u_after, loops = np.empty(len(indices)), np.zeros(len(indices), dtype=int)
-        for k, index in enumerate(indices):
-            predicted = self.predict_path(context, state.candidates[index].path)
+        for k, action in enumerate(actions):
+            predicted = self.predicted_keyframes(context, action.prediction)
             u_after[k] = self.utility_after(context, predicted)
             loops[k] = len(predicted.revisits)
         lengths = np.array([state.candidates[i].length for i in indices], dtype=float)
@@ -312,10 +335,9 @@ class EMPlanner:
                             int(nearest[0]) if len(nearest) else -1,
                             1e3 * (time.perf_counter() - start))
 
-    def candidate_indices(self, state: ExplorationState) -> np.ndarray:
-        """Up to ``max_candidates`` candidate indices, shortest path first."""
-        lengths = np.array([c.length for c in state.candidates], dtype=float)
-        return np.argsort(lengths, kind="stable")[: max(self.config.max_candidates, 1)]
+    def actions(self, state: ExplorationState) -> list[Action]:
+        """The decision's action set (nearest first; explore_rl/planning/actions.py)."""
+        return select_actions(state, self.planning.actions, self.planning.revisits)
 
     def virtual_map(self, grid: GridSpec) -> VirtualMap:
         """The virtual map geometry on ``grid`` (built once; its state is never used)."""
@@ -325,31 +347,23 @@ class EMPlanner:
 
     def decision_context(self, state: ExplorationState) -> DecisionContext:
         """Old marginals, their observations and the current virtual map (U0)."""
-        session = state.session
-        graph = session.graph
-        vmap = self.virtual_map(session.occupancy.grid)
-        blocked = session.occupancy.known_occupied
-        poses = graph.poses_se2()
-        pose_covs = world_covariances(graph, poses)
-        observations = Observations.of(vmap, poses, blocked)
-        landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
-        keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
-        return DecisionContext(graph, vmap, blocked, float(state.travel),
-                               float(session.config.keyframe_distance), poses, pose_covs,
-                               keyframe_travel, observations, landmark_covs,
-                               vmap.utility(landmark_covs))
+        return make_decision_context(state, self.virtual_map(state.session.occupancy.grid))
 
     # ------------------------------------------------------------ one candidate
 
     def predict_path(self, context: DecisionContext, path_xy: np.ndarray) -> PredictedPath:
         """Predicted keyframes along ``path_xy`` and the loops they would close."""
-        poses, travel = sample_path(path_xy, context.keyframe_spacing)
-        anchors = np.vstack([context.poses[-1:], poses[:-1]])
-        deltas = se2_between(anchors, poses)
-        revisits = predict_revisits(poses[:, :2], context.poses[:, :2], context.keyframe_travel,
-                                    context.travel, context.blocked, context.grid,
-                                    self.planning.revisits, path_travel=travel)
-        return PredictedPath(poses, travel, deltas, motion_steps(deltas, self.robot), revisits)
+        prediction = predict_path(path_xy, context.poses[:, :2], context.keyframe_travel, context.travel,
+                                  context.blocked, context.grid, self.planning.revisits,
+                                  context.keyframe_spacing)
+        return self.predicted_keyframes(context, prediction)
+
+    def predicted_keyframes(self, context: DecisionContext, prediction: PathPrediction) -> PredictedPath:
+        """A path prediction chained to the last live keyframe (relative motions, steps)."""
+        anchors = np.vstack([context.poses[-1:], prediction.poses[:-1]])
+        deltas = se2_between(anchors, prediction.poses)
+        return PredictedPath(prediction.poses, prediction.travel, deltas, motion_steps(deltas, self.robot),
+                             prediction.revisits)
 
     def utility_after(self, context: DecisionContext, predicted: PredictedPath) -> float:
         """``U'``: the virtual map after the predicted keyframes (and loops) join the graph."""

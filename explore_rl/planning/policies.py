@@ -17,11 +17,12 @@ if TYPE_CHECKING:
 
 @dataclass
 class PolicyConfig:
-    """The ``policy`` config group. ``name``: nearest, random, em (or learned, later)."""
+    """The ``policy`` config group. ``name``: nearest, random, em (or learned, later).
+
+    EM evaluates the decision's action set, ``planning.actions`` (one set for the
+    exploration graph, EM and the reward)."""
 
     name: str = "nearest"
-    # EM: at most this many candidate frontiers are evaluated (nearest first).
-    max_candidates: int = 10
 
 
 class Policy(Protocol):

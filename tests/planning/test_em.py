@@ -18,7 +18,7 @@ from explore_rl.grid import GridSpec
 from explore_rl.mapping.frontiers import Frontier
 from explore_rl.mapping.occupancy import OccupancyGrid
 from explore_rl.mapping.paths import path_length
-from explore_rl.planning.config import PlanningConfig
+from explore_rl.planning.config import ActionSetConfig, PlanningConfig
 from explore_rl.planning.em import (
     EMConfig,
     EMPlanner,
@@ -89,8 +89,9 @@ def tour_state(scale: float, extra_paths=()) -> ExplorationState:
 
 
 def planner(max_candidates: int = 10, **em) -> EMPlanner:
-    return EMPlanner(PolicyConfig(name="em", max_candidates=max_candidates), PlanningConfig(),
-                     EMConfig(**em))
+    """EM over the ``max_candidates`` nearest frontiers (``planning.actions.kind=nearest``)."""
+    planning = PlanningConfig(actions=ActionSetConfig(kind="nearest", max_frontiers=max_candidates))
+    return EMPlanner(PolicyConfig(name="em"), planning, EMConfig(**em))
 
 
 def utility_of(graph: PoseGraph, occupancy: OccupancyGrid) -> float:

@@ -1,0 +1,282 @@
+"""The TorchRL environment: one step = one exploration decision (paper Sec. III).
+
+Observation: the exploration graph of the current decision, padded (``x``, ``adj``,
+``node_mask``, ``action_mask``; explore_rl/graph/encode.py). Action: a node index; only
+frontier nodes are valid (a masked categorical over ``graph.max_nodes``). Reward: the
+Algorithm 1 reward of the chosen node, from EM's evaluation of *every* frontier node of
+the same decision (min-max normalised, anchored on the nearest frontier). Then the robot
+drives the path with SLAM (``Explorer.act``), the same exploration step the plain runner
+uses.
+
+Each decision is evaluated when it is observed, so the observation also carries EM's
+choice (``em_action``) and the nearest frontier (``nearest_action``) of that state -- the
+labels an imitation term needs, aligned with the action taken there.
+
+Nothing inside a step ends a training run: an EM error gives reward 0 for that step (and
+``em_action = -1``); an error while driving or observing ends the episode as truncated
+with ``failed = True``. Both are logged and counted in :attr:`ExplorationEnv.failures`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections import Counter
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from explore_rl.config import Config
+from explore_rl.graph.encode import EncodedGraph, encode
+from explore_rl.graph.exploration_graph import ExplorationGraph, graph_from_state
+from explore_rl.planning.actions import Action
+from explore_rl.planning.em import EMPlanner
+from explore_rl.planning.policies import PolicyConfig
+from explore_rl.runner import DecisionRecord, Explorer, Status
+from explore_rl.scene.build import Scene, make_scene
+from explore_rl.slam.session import StageTimer
+from explore_rl.state import ExplorationState
+
+log = logging.getLogger(__name__)
+
+TERMINATING = (Status.EXPLORED, Status.NO_FRONTIER)  # the task ended; budgets truncate
+RESET_ATTEMPTS = 3  # episodes tried at a reset before giving up (a start with no frontier)
+# per-step figures besides the graph: (key, dtype)
+INFO_KEYS = (
+    ("explored", torch.float32),
+    ("map_error", torch.float32),
+    ("travel", torch.float32),
+    ("loop_closures", torch.int64),
+    ("keyframes", torch.int64),
+    ("blocked", torch.bool),
+    ("failed", torch.bool),
+)
+
+
+@dataclass
+class Decision:
+    """One observed decision: the state, its action set, graph, encoding and rewards."""
+
+    state: ExplorationState
+    actions: list[Action]  # nearest first; actions[k] is graph.frontier_nodes[k]
+    graph: ExplorationGraph
+    encoded: EncodedGraph
+    rewards: np.ndarray | None  # (F,) Algorithm 1 reward of each action; None if EM failed
+    em_choice: int  # position in actions of EM's choice, -1 if EM failed
+
+    def action_row(self, k: int) -> int:
+        """Row of the encoded graph holding action ``k``."""
+        return self.encoded.row_of(int(self.graph.frontier_nodes[k]))
+
+    def action_of_row(self, row: int) -> int:
+        """Position in ``actions`` of the frontier at encoded row ``row``."""
+        node = int(self.encoded.nodes[row])
+        return int(np.flatnonzero(self.graph.frontier_nodes == node)[0])
+
+
+class ExplorationEnv(EnvBase):
+    """Exploration decisions as a TorchRL environment (see the module docstring)."""
+
+    def __init__(self, config: Config, device: str | torch.device = "cpu"):
+        super().__init__(device=device)
+        self.config = config
+        self.max_nodes = int(config.graph.max_nodes)
+        self.em = EMPlanner(PolicyConfig(name="em"), config.planning, robot=config.robot)
+        self.timer = StageTimer()  # seconds in graph / reward / drive, summed over steps
+        self.failures: Counter[str] = Counter()
+        self.explorer: Explorer | None = None
+        self.decision: Decision | None = None
+        self.episode = 0
+        self.max_nodes_seen = 0
+        self._scenes: dict[int, Scene] = {}
+        self._set_seed(config.seed)
+        self._make_specs()
+
+    # ------------------------------------------------------------------ specs
+
+    def _make_specs(self) -> None:
+        n, device = self.max_nodes, self.device
+        flag = dict(n=2, dtype=torch.bool, device=device)
+        self.observation_spec = Composite(
+            x=Unbounded((n, 4), dtype=torch.float32, device=device),
+            adj=Unbounded((n, n), dtype=torch.float32, device=device),
+            node_mask=Categorical(shape=(n,), **flag),
+            action_mask=Categorical(shape=(n,), **flag),
+            em_action=Bounded(-1, n - 1, shape=(), dtype=torch.int64, device=device),
+            nearest_action=Bounded(0, n - 1, shape=(), dtype=torch.int64, device=device),
+            **{key: Unbounded((), dtype=dtype, device=device) for key, dtype in INFO_KEYS},
+            device=device,
+        )
+        self.action_spec = Categorical(n=n, shape=(), dtype=torch.int64, device=device)
+        self.reward_spec = Unbounded((1,), dtype=torch.float32, device=device)
+        self.full_done_spec = Composite(
+            done=Categorical(shape=(1,), **flag),
+            terminated=Categorical(shape=(1,), **flag),
+            truncated=Categorical(shape=(1,), **flag),
+            device=device,
+        )
+
+    # ------------------------------------------------------------------ seeding & episodes
+
+    def _set_seed(self, seed: int | None) -> None:
+        """Episode seeds and starts derive from ``seed`` (and the episode count)."""
+        self.seed = int(self.config.seed if seed is None else seed)
+        self.episode = 0
+        self._start_rng = np.random.default_rng([self.seed, 0])
+
+    def episode_seed(self) -> int:
+        return int(np.random.SeedSequence([self.seed, self.episode]).generate_state(1)[0])
+
+    def start_index(self, n_starts: int) -> int:
+        """The start of the next episode (``env.starts``)."""
+        mode = self.config.env.starts
+        if mode == "auto":
+            mode = "cycle" if self.config.scene.name == "office" else "default"
+        if mode == "cycle":
+            return (self.seed + self.episode) % n_starts
+        if mode == "sample":
+            return int(self._start_rng.integers(n_starts))
+        if mode == "default":
+            return int(self.config.scene.start_index)
+        raise ValueError(f"env.starts={mode!r}: choose auto, cycle, sample or default")
+
+    def scene(self, start_index: int) -> Scene:
+        """The scene built for ``start_index`` (structure built once per start, then reused)."""
+        if start_index not in self._scenes:
+            scene_config = dataclasses.replace(self.config.scene, start_index=start_index)
+            self._scenes[start_index] = make_scene(scene_config, self.config.robot, self.config.lidar)
+        return self._scenes[start_index]
+
+    def new_explorer(self) -> Explorer:
+        n_starts = len(self.scene(self.config.scene.start_index).layout.starts)
+        start = self.start_index(n_starts)
+        config = dataclasses.replace(self.config, seed=self.episode_seed(),
+                                     scene=dataclasses.replace(self.config.scene, start_index=start))
+        log.debug("episode %d: start %d, seed %d", self.episode, start, config.seed)
+        self.episode += 1
+        return Explorer(config, policy=self.em, scene=self.scene(start))
+
+    # ------------------------------------------------------------------ EnvBase
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        for _ in range(RESET_ATTEMPTS):
+            self.explorer = self.new_explorer()
+            self.decision = self.observe()
+            if self.decision is not None:
+                break
+            log.warning("episode %d had no reachable frontier at its start; trying the next",
+                        self.episode - 1)
+        if self.decision is None:
+            raise RuntimeError(f"{RESET_ATTEMPTS} episodes in a row had no reachable frontier at the "
+                               "start: check the scene's starts")
+        out = self.observation(self.decision, self.explorer_info(None, failed=False))
+        return out.update(self.full_done_spec.zero())
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        decision = self.decision
+        if decision is None:
+            raise RuntimeError("step() called before reset() or after the episode ended: reset the env")
+        k = self.validate_action(int(tensordict.get("action")), decision)
+        reward = 0.0 if decision.rewards is None else float(decision.rewards[k])
+        record, failed = None, False
+        try:
+            with self.timer("drive"):
+                record = self.explorer.act(decision.state, decision.actions[k].candidate)
+            self.decision = self.observe()
+        except Exception:  # noqa: BLE001 -- one bad step must not end a training run
+            log.exception("episode %d: driving or observing failed; the episode ends truncated", self.episode - 1)
+            self.failures["step"] += 1
+            self.decision, failed = None, True
+        status = self.explorer.result.status
+        terminated = self.decision is None and not failed and status in TERMINATING
+        truncated = self.decision is None and not terminated
+        out = self.observation(self.decision or decision, self.explorer_info(record, failed),
+                               no_actions=self.decision is None)
+        out.set("reward", torch.tensor([reward], dtype=torch.float32))
+        out.set("terminated", torch.tensor([terminated]))
+        out.set("truncated", torch.tensor([truncated]))
+        out.set("done", torch.tensor([terminated or truncated]))
+        return out
+
+    def validate_action(self, action: int, decision: Decision) -> int:
+        """Position in the action set of the frontier at row ``action``; a clear error otherwise."""
+        mask = decision.encoded.action_mask
+        if not 0 <= action < self.max_nodes or not mask[action]:
+            raise ValueError(f"action {action} is not a frontier node: action_mask allows rows "
+                             f"{np.flatnonzero(mask).tolist()}")
+        return decision.action_of_row(action)
+
+    def rand_action(self, tensordict: TensorDictBase | None = None) -> TensorDictBase:
+        """A uniformly random *valid* action (``action_mask``), for random rollouts."""
+        if tensordict is None:
+            tensordict = TensorDict(batch_size=self.batch_size, device=self.device)
+        spec = self.action_spec.clone()
+        mask = tensordict.get("action_mask", None)
+        if mask is not None and bool(mask.any()):
+            spec.update_mask(mask)
+        tensordict.set(self.action_key, spec.rand())
+        return tensordict
+
+    # ------------------------------------------------------------------ decisions
+
+    def observe(self) -> Decision | None:
+        """The next decision (graph + Algorithm 1 rewards), or None when the episode is over."""
+        with self.timer("observe"):  # escape, frontiers, one Dijkstra: as the runner does
+            state = self.explorer.next_state()
+        if state is None:
+            return None
+        with self.timer("graph"):
+            actions = self.em.actions(state)
+            context = self.em.decision_context(state)
+            graph = graph_from_state(state, context, actions)
+            encoded = encode(graph, self.max_nodes)
+        self.max_nodes_seen = max(self.max_nodes_seen, graph.num_nodes)
+        rewards, em_choice = None, -1
+        with self.timer("reward"):
+            try:
+                evaluation = self.em.evaluate(state, actions, context)
+                rewards, em_choice = evaluation.rewards(self.config.planning), evaluation.best
+            except Exception:  # noqa: BLE001 -- reward 0 for this step, the run goes on
+                log.exception("EM evaluation failed at decision %d; reward 0", len(self.explorer.result.records))
+                self.failures["em"] += 1
+        return Decision(state, actions, graph, encoded, rewards, em_choice)
+
+    def explorer_info(self, record: DecisionRecord | None, failed: bool) -> dict:
+        """Per-step figures: from the decision's record, or the session at a reset/failure."""
+        if record is not None:
+            explored, map_error, loops, keyframes = (record.explored, record.map_error_m,
+                                                     record.loop_closures, record.keyframes)
+            blocked = record.path_status == "blocked"
+        else:
+            metrics = self.explorer.session.metrics()
+            explored, map_error, loops, keyframes = (metrics.explored, metrics.map_error_m,
+                                                     metrics.loop_closures, metrics.keyframes)
+            blocked = False
+        return dict(explored=explored, map_error=map_error, travel=self.explorer.robot.travelled,
+                    loop_closures=loops, keyframes=keyframes, blocked=blocked, failed=failed)
+
+    def observation(self, decision: Decision, info: dict, no_actions: bool = False) -> TensorDict:
+        """The observation keys of ``decision``. ``no_actions``: a final observation (the
+        last decision's graph with every action masked; nothing acts on it)."""
+        encoded = decision.encoded
+        action_mask = np.zeros_like(encoded.action_mask) if no_actions else encoded.action_mask
+        em_action = -1 if decision.em_choice < 0 else decision.action_row(decision.em_choice)
+        values = {
+            "x": torch.from_numpy(encoded.x),
+            "adj": torch.from_numpy(encoded.adj),
+            "node_mask": torch.from_numpy(encoded.node_mask),
+            "action_mask": torch.from_numpy(action_mask),
+            "em_action": torch.tensor(em_action, dtype=torch.int64),
+            "nearest_action": torch.tensor(decision.action_row(0), dtype=torch.int64),
+        }
+        values.update({key: torch.tensor(info[key], dtype=dtype) for key, dtype in INFO_KEYS})
+        return TensorDict(values, batch_size=())
+
+    def timings_ms(self) -> dict[str, float]:
+        """Milliseconds per stage summed over all steps so far."""
+        return {stage: 1e3 * seconds for stage, seconds in self.timer.seconds.items()}

@@ -1,0 +1,88 @@
+"""Exploration graph -> fixed-size padded arrays: what the actor-critic and TorchRL consume.
+
+``x[N, 4]`` node features, ``adj[N, N]`` weighted symmetric adjacency, ``node_mask[N]``
+(real nodes) and ``action_mask[N]`` (frontier nodes), with ``N = graph.max_nodes``; real
+nodes come first, padding stays zero. A graph larger than ``N`` loses pose nodes that
+have no frontier edge, farthest from the current pose first (they matter least to where
+to go next); the current pose and the frontiers are never dropped.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from explore_rl.graph.exploration_graph import ExplorationGraph
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class EncodedGraph:
+    """Padded arrays of one graph, plus which graph node each row holds."""
+
+    x: np.ndarray  # (N, 4) float32
+    adj: np.ndarray  # (N, N) float32
+    node_mask: np.ndarray  # (N,) bool
+    action_mask: np.ndarray  # (N,) bool
+    nodes: np.ndarray  # (n_kept,) graph node index of each real row
+    dropped: int  # pose nodes dropped to fit N
+
+    def row_of(self, node: int) -> int:
+        """Row of graph node ``node``; ValueError if it was dropped."""
+        rows = np.flatnonzero(self.nodes == node)
+        if len(rows) == 0:
+            raise ValueError(f"graph node {node} was dropped from the encoding")
+        return int(rows[0])
+
+
+def nodes_to_keep(graph: ExplorationGraph, max_nodes: int) -> np.ndarray:
+    """Sorted node indices that fit in ``max_nodes`` (see the module docstring).
+
+    If even the protected nodes do not fit, pose nodes with frontier edges go too,
+    farthest first; the current pose and the frontiers always stay.
+    """
+    n = graph.num_nodes
+    if n <= max_nodes:
+        return np.arange(n)
+    frontier = graph.candidate >= 0
+    if frontier.sum() + 1 > max_nodes:
+        raise ValueError(f"graph.max_nodes={max_nodes} cannot hold the current pose and "
+                         f"{int(frontier.sum())} frontiers: raise graph.max_nodes")
+    touches_frontier = np.zeros(n, dtype=bool)
+    frontier_edges = frontier[graph.edges].any(axis=1)
+    touches_frontier[graph.edges[frontier_edges].ravel()] = True
+    protected = frontier.copy()
+    protected[graph.current] = True
+    distance = graph.features[:, 1]
+    # drop order: unlinked poses farthest first, then frontier-linked poses farthest first
+    droppable = np.flatnonzero(~protected)
+    order = droppable[np.lexsort((-distance[droppable], touches_frontier[droppable]))]
+    dropped = order[: n - max_nodes]
+    if touches_frontier[dropped].any():
+        log.warning("graph.max_nodes=%d: dropped %d poses linked to frontiers too (raise graph.max_nodes)",
+                    max_nodes, int(touches_frontier[dropped].sum()))
+    keep = np.ones(n, dtype=bool)
+    keep[dropped] = False
+    return np.flatnonzero(keep)
+
+
+def encode(graph: ExplorationGraph, max_nodes: int) -> EncodedGraph:
+    """Padded arrays of ``graph`` with ``N = max_nodes`` rows."""
+    nodes = nodes_to_keep(graph, max_nodes)
+    dropped = graph.num_nodes - len(nodes)
+    if dropped:
+        log.debug("exploration graph of %d nodes: dropped %d far poses to fit graph.max_nodes=%d",
+                  graph.num_nodes, dropped, max_nodes)
+    k = len(nodes)
+    x = np.zeros((max_nodes, graph.features.shape[1]), dtype=np.float32)
+    x[:k] = graph.features[nodes]
+    adj = np.zeros((max_nodes, max_nodes), dtype=np.float32)
+    adj[:k, :k] = graph.adjacency()[np.ix_(nodes, nodes)]
+    node_mask = np.zeros(max_nodes, dtype=bool)
+    node_mask[:k] = True
+    action_mask = np.zeros(max_nodes, dtype=bool)
+    action_mask[:k] = graph.candidate[nodes] >= 0
+    return EncodedGraph(x, adj, node_mask, action_mask, nodes, dropped)

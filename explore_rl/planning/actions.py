@@ -1,0 +1,85 @@
+"""The action set of a decision: which frontiers a policy may choose, and the loops each closes.
+
+One definition serves the exploration graph (its frontier nodes), the EM planner (the
+candidates it evaluates) and the Algorithm 1 reward (normalised over the same set), so
+the learner, the expert and the reward never disagree about what the choices were.
+
+The paper's set (``kind="graph"``): the frontier nearest the robot (shortest path) plus
+every frontier whose path :func:`~explore_rl.planning.revisits.predict_revisits` says
+closes a loop. ``extra_nearest`` adds the K nearest frontiers for studies; ``kind="nearest"``
+is the ``max_frontiers`` nearest alone (the EM planner's set before the exploration graph).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from explore_rl.grid import GridSpec
+from explore_rl.planning.config import ActionSetConfig, RevisitConfig
+from explore_rl.planning.revisits import Revisit, predict_revisits, sample_path
+
+if TYPE_CHECKING:
+    from explore_rl.state import ExplorationState
+
+
+@dataclass
+class PathPrediction:
+    """Keyframes a path would add and the loops they would close."""
+
+    poses: np.ndarray  # (P, 3) predicted keyframe poses [x, y, yaw] along the path
+    travel: np.ndarray  # (P,) travel from the robot's pose to each
+    revisits: list[Revisit]  # keyframe_index: the old keyframe; path_index: into poses
+
+
+@dataclass
+class Action:
+    """One frontier of the action set."""
+
+    candidate: int  # index into state.candidates
+    prediction: PathPrediction
+
+    @property
+    def closes_loop(self) -> bool:
+        return bool(self.prediction.revisits)
+
+
+def predict_path(path_xy: np.ndarray, keyframe_xy: np.ndarray, keyframe_travel: np.ndarray,
+                 travel: float, blocked: np.ndarray, grid: GridSpec, revisits: RevisitConfig,
+                 keyframe_spacing: float) -> PathPrediction:
+    """Predicted keyframes every ``keyframe_spacing`` along ``path_xy`` and their revisits
+    of the keyframes at ``keyframe_xy`` (current estimates)."""
+    poses, path_travel = sample_path(path_xy, keyframe_spacing)
+    found = predict_revisits(poses[:, :2], keyframe_xy, keyframe_travel, travel, blocked, grid,
+                             revisits, path_travel=path_travel)
+    return PathPrediction(poses, path_travel, found)
+
+
+def predict_candidate_paths(state: ExplorationState, revisits: RevisitConfig) -> list[PathPrediction]:
+    """:func:`predict_path` for every candidate of ``state`` (keyframe estimates read once)."""
+    session = state.session
+    keyframe_xy = session.graph.poses_se2()[:, :2]
+    keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
+    blocked = session.occupancy.known_occupied
+    spacing = float(session.config.keyframe_distance)
+    return [predict_path(c.path, keyframe_xy, keyframe_travel, float(state.travel), blocked,
+                         session.occupancy.grid, revisits, spacing) for c in state.candidates]
+
+
+def select_actions(state: ExplorationState, config: ActionSetConfig,
+                   revisits: RevisitConfig) -> list[Action]:
+    """The action set of ``state``: nearest first, then by path length, at most
+    ``config.max_frontiers`` (the nearest is always in it)."""
+    predictions = predict_candidate_paths(state, revisits)
+    by_length = np.argsort([c.length for c in state.candidates], kind="stable")
+    if config.kind == "nearest":
+        chosen = list(by_length)
+    elif config.kind == "graph":
+        extra = set(int(i) for i in by_length[: config.extra_nearest])
+        chosen = [i for i in by_length if i == state.nearest or i in extra or predictions[i].revisits]
+    else:
+        raise ValueError(f"planning.actions.kind={config.kind!r}: choose graph or nearest")
+    chosen = [state.nearest] + [int(i) for i in chosen if i != state.nearest]
+    return [Action(i, predictions[i]) for i in chosen[: max(config.max_frontiers, 1)]]
