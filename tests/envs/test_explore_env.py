@@ -1,0 +1,180 @@
+"""The TorchRL exploration environment: specs, rewards, episodes, failures, worker processes."""
+
+from __future__ import annotations
+
+import multiprocessing
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from torchrl.envs.utils import check_env_specs
+
+from explore_rl.config import load_config
+from explore_rl.envs import EnvFactory, make_env
+from explore_rl.planning.em import EMPlanner
+from explore_rl.planning.policies import PolicyConfig
+from explore_rl.planning.reward import normalize_rewards
+
+LAB = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "lab.yaml"
+# a few frontiers per decision keeps EM (the reward) cheap in tests
+FAST = ["slam=model", "planning.actions.max_frontiers=3", "explore.progress_bar=false"]
+
+
+def env_for(*overrides: str):
+    return make_env(load_config([*FAST, *overrides]))
+
+
+def run_episode(env, choose=None, max_steps: int = 400):
+    """Step until done with ``choose(td) -> row`` (default: a random valid row); checks
+    the action mask on every observation on the way."""
+    td = env.reset()
+    steps = []
+    for _ in range(max_steps):
+        mask = td["action_mask"]
+        assert mask.any(), "an all-False action mask while the episode runs"
+        assert not (mask & ~td["node_mask"]).any()
+        td = env.rand_action(td) if choose is None else td.set("action", torch.tensor(choose(td)))
+        assert mask[td["action"]]
+        out = env.step(td)
+        steps.append(out)
+        if out["next", "done"].item():
+            return steps
+        td = out["next"]
+    raise AssertionError(f"no episode end in {max_steps} steps")
+
+
+def test_specs_pass_torchrl_check():
+    check_env_specs(env_for("scene=office"), seed=0)
+
+
+def test_reward_is_algorithm_1_on_an_independent_em_evaluation_of_the_same_state():
+    env = env_for("scene=office")
+    td = env.reset()
+    for _ in range(4):  # a few decisions in, so there is more than one frontier
+        td = env.step(td.set("action", td["nearest_action"]))["next"]
+    decision = env.decision
+    assert len(decision.actions) > 1
+    planner = EMPlanner(PolicyConfig(name="em"), env.config.planning, robot=env.config.robot)
+    evaluation = planner.evaluate(decision.state)  # its own action set, context and graph copies
+    expected = normalize_rewards(evaluation.raw, evaluation.nearest, env.config.planning.reward)
+    np.testing.assert_array_equal(evaluation.indices, [a.candidate for a in decision.actions])
+    np.testing.assert_allclose(decision.rewards, expected)
+    assert td["em_action"].item() == decision.action_row(evaluation.best)
+    last = len(decision.actions) - 1
+    row = decision.action_row(last)
+    out = env.step(td.clone().set("action", torch.tensor(row)))
+    assert out["next", "reward"].item() == pytest.approx(expected[last], abs=1e-6)
+
+
+def test_a_whole_office_episode_with_random_valid_actions_ends_done():
+    env = env_for("scene=office", "seed=3")
+    steps = run_episode(env)
+    last = steps[-1]["next"]
+    assert last["terminated"].item() or last["truncated"].item()
+    assert not last["action_mask"].any()  # the final observation offers nothing
+    assert env.explorer.result.status.value in ("explored", "no_reachable_frontier", "travel_budget",
+                                                "max_decisions")
+    if last["terminated"].item():
+        assert last["explored"].item() >= 0.85 or env.explorer.result.status.value == "no_reachable_frontier"
+    rewards = torch.stack([s["next", "reward"] for s in steps])
+    assert rewards.min() >= -1 and rewards.max() <= 1
+    travel = torch.stack([s["next", "travel"] for s in steps])
+    assert torch.all(travel[1:] >= travel[:-1])
+    assert env.max_nodes_seen > 0 and not env.failures
+
+
+@pytest.mark.parametrize("scene", ["office", "street", "garage"])
+def test_the_action_mask_is_never_empty_before_the_end_in_every_procedural_scene(scene):
+    env = env_for(f"scene={scene}", "explore.travel_budget=40")
+    steps = run_episode(env)
+    assert steps[-1]["next", "done"].item()
+
+
+def test_a_scene_file_episode():
+    env = env_for("scene=file", f"scene.path={LAB}", "explore.travel_budget=30")
+    steps = run_episode(env, choose=lambda td: td["em_action"].item())
+    assert steps[-1]["next", "done"].item()
+    assert all(s["em_action"].item() >= 0 for s in steps)
+
+
+def test_the_icp_front_end_drives_a_decision():
+    env = make_env(load_config(["slam=icp", "scene=street", "planning.actions.max_frontiers=2"]))
+    td = env.reset()
+    out = env.step(td.set("action", td["nearest_action"]))
+    assert out["next", "keyframes"].item() > td["keyframes"].item()
+    assert out["next", "travel"].item() > 0
+
+
+def test_office_resets_cycle_through_the_starts():
+    env = env_for("scene=office")
+    env.set_seed(5)
+    starts = []
+    for _ in range(3):
+        env.reset()
+        starts.append(env.explorer.scene.config.start_index)
+    n = len(env.explorer.scene.layout.starts)
+    assert n == 9 and starts == [(5 + k) % n for k in range(3)]
+
+
+def test_an_invalid_action_names_the_mask():
+    env = env_for("scene=street")
+    td = env.reset()
+    invalid = int(torch.nonzero(~td["action_mask"])[0, 0])
+    with pytest.raises(ValueError, match="not a frontier node: action_mask allows rows"):
+        env.step(td.set("action", torch.tensor(invalid)))
+
+
+def test_an_em_failure_gives_reward_zero_and_the_run_goes_on(monkeypatch):
+    env = env_for("scene=street")
+    td = env.reset()
+
+    def broken(*args, **kwargs):
+        raise np.linalg.LinAlgError("singular")
+
+    monkeypatch.setattr(env.em, "evaluate", broken)
+    out = env.step(td.set("action", td["nearest_action"]))["next"]
+    assert out["em_action"].item() == -1 and not out["done"].item()
+    out = env.step(out.set("action", out["nearest_action"]))
+    assert out["next", "reward"].item() == 0.0
+    assert env.failures["em"] == 2
+
+
+def test_a_failure_while_driving_ends_the_episode_truncated(monkeypatch):
+    env = env_for("scene=street")
+    td = env.reset()
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("iSAM2 exploded")
+
+    monkeypatch.setattr(env.explorer, "act", broken)
+    out = env.step(td.set("action", td["nearest_action"]))["next"]
+    assert out["done"].item() and out["truncated"].item() and not out["terminated"].item()
+    assert out["failed"].item() and env.failures["step"] == 1
+    td = env.reset()  # and the next episode starts normally
+    assert td["action_mask"].any()
+
+
+def _reset_in_child(factory_bytes: bytes, queue) -> None:
+    factory = pickle.loads(factory_bytes)
+    env = factory()
+    env.set_seed(7)
+    td = env.reset()
+    queue.put((td["x"].numpy(), td["action_mask"].numpy()))
+
+
+def test_the_env_factory_works_in_a_spawned_process():
+    factory = EnvFactory(load_config([*FAST, "scene=street"]))
+    context = multiprocessing.get_context("spawn")
+    queue = context.Queue()
+    child = context.Process(target=_reset_in_child, args=(pickle.dumps(factory), queue))
+    child.start()
+    x, mask = queue.get(timeout=120)
+    child.join(timeout=60)
+    assert child.exitcode == 0
+    env = factory()
+    env.set_seed(7)
+    td = env.reset()
+    np.testing.assert_array_equal(td["x"].numpy(), x)
+    np.testing.assert_array_equal(td["action_mask"].numpy(), mask)
