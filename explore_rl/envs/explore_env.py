@@ -230,9 +230,10 @@ class ExplorationEnv(EnvBase):
             state = self.explorer.next_state()
         if state is None:
             return None
-        with self.timer("graph"):
+        with self.timer("context"):  # action set, marginals, virtual map: shared with EM
             actions = self.em.actions(state)
             context = self.em.decision_context(state)
+        with self.timer("graph"):
             graph = graph_from_state(state, context, actions)
             encoded = encode(graph, self.max_nodes)
         self.max_nodes_seen = max(self.max_nodes_seen, graph.num_nodes)
