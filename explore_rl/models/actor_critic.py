@@ -12,13 +12,14 @@ TorchRL modules that read and write those tensordict keys.
 
 from __future__ import annotations
 
+import torch
 from tensordict.nn import TensorDictModule
 from torch import Tensor, nn
 from torchrl.data import TensorSpec
 from torchrl.modules import MaskedCategorical, ProbabilisticActor, ValueOperator
 
 from explore_rl.models.config import ModelConfig
-from explore_rl.models.graph_unet import DenseGraphUNet
+from explore_rl.models.graph_unet import DenseGraphUNet, packed_rows
 
 OBSERVATION_KEYS = ["x", "adj", "node_mask"]
 ACTION_MASK_KEY = "action_mask"
@@ -31,6 +32,20 @@ def make_unet(config: ModelConfig, n_features: int) -> DenseGraphUNet:
                           edge_weight=config.edge_weight, min_edge_length=config.min_edge_length)
 
 
+class Dropout(nn.Module):
+    """Inverted dropout, as ``nn.Dropout``, with the mask drawn by ``rand >= p``: on a
+    CPU about 3x faster than ``nn.Dropout``'s ``bernoulli_``, same distribution."""
+
+    def __init__(self, p: float):
+        super().__init__()
+        self.p = p
+
+    def forward(self, x: Tensor) -> Tensor:
+        if not self.training or self.p == 0.0:
+            return x
+        return x * (torch.rand_like(x) >= self.p).to(x.dtype) / (1.0 - self.p)
+
+
 def make_node_head(config: ModelConfig) -> nn.Sequential:
     """ReLU -> dropout -> MLP, one scalar per node. The U-Net's last GCN layer is linear;
     the ReLU before the head follows the authors' code. ``mlp_hidden=0``: one linear layer."""
@@ -38,7 +53,12 @@ def make_node_head(config: ModelConfig) -> nn.Sequential:
         mlp = [nn.Linear(config.hidden, 1)]
     else:
         mlp = [nn.Linear(config.hidden, config.mlp_hidden), nn.ReLU(), nn.Linear(config.mlp_hidden, 1)]
-    return nn.Sequential(nn.ReLU(), nn.Dropout(config.dropout), *mlp)
+    return nn.Sequential(nn.ReLU(), Dropout(config.dropout), *mlp)
+
+
+def node_scores(head: nn.Module, features: Tensor, node_mask: Tensor) -> Tensor:
+    """``head`` on the real nodes' features only, ``[..., N]``; 0 on padded nodes."""
+    return packed_rows(head, features, node_mask).squeeze(-1)
 
 
 class GraphActor(nn.Module):
@@ -51,8 +71,7 @@ class GraphActor(nn.Module):
         self.head = make_node_head(config)
 
     def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
-        logits = self.head(self.unet(x, adj, node_mask)).squeeze(-1)
-        return logits.masked_fill(~node_mask.bool(), 0.0)
+        return node_scores(self.head, self.unet(x, adj, node_mask), node_mask.bool())
 
 
 class GraphCritic(nn.Module):
@@ -64,8 +83,9 @@ class GraphCritic(nn.Module):
         self.head = make_node_head(config)
 
     def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
-        scores = self.head(self.unet(x, adj, node_mask)).squeeze(-1)
-        return masked_mean(scores, node_mask.bool()).unsqueeze(-1)
+        node_mask = node_mask.bool()
+        scores = node_scores(self.head, self.unet(x, adj, node_mask), node_mask)
+        return masked_mean(scores, node_mask).unsqueeze(-1)
 
 
 def masked_mean(values: Tensor, mask: Tensor) -> Tensor:

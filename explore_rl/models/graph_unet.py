@@ -110,10 +110,22 @@ class DenseGCNConv(nn.Module):
     def forward(self, x: Tensor, norm_adj: Tensor, mask: Tensor) -> Tensor:
         # (A X) W == A (X W): propagate the narrower of the two (the input layer has 4 features).
         if self.lin.in_features < self.lin.out_features:
-            out = self.lin(norm_adj @ x)
+            out = packed_rows(self.lin, norm_adj @ x, mask)
         else:
-            out = norm_adj @ self.lin(x)
+            out = norm_adj @ packed_rows(self.lin, x, mask)
         return (out + self.bias) * mask.unsqueeze(-1).to(out.dtype)
+
+
+def packed_rows(layer: nn.Module, x: Tensor, mask: Tensor) -> Tensor:
+    """``layer`` applied to the real nodes' rows of ``x[B, N, F]`` only, zeros elsewhere.
+    The row-wise layers are most of the flops at large widths, and a padded batch is
+    often half padding."""
+    if bool(mask.all()):
+        return layer(x)
+    rows = layer(x[mask])
+    out = rows.new_zeros(*mask.shape, *rows.shape[1:])
+    out[mask] = rows
+    return out
 
 
 class Pooled(NamedTuple):
@@ -151,12 +163,11 @@ class DenseTopKPool(nn.Module):
 
 def augmented_adjacency(adj: Tensor, mask: Tensor, index: Tensor, kept: Tensor) -> Tensor:
     """``(A + I)^2`` restricted to the kept nodes, diagonal dropped (PyG ``augment_adj``
-    followed by ``filter_adj``). Only the kept rows and columns are multiplied:
-    ``K x N x K`` instead of ``N^3``."""
+    followed by ``filter_adj``). Only the kept rows are multiplied (``K x N x K`` instead
+    of ``N^3``); ``A`` is symmetric, so the kept columns are the rows transposed."""
     with_loops = adj + torch.diag_embed(mask.to(adj.dtype))
     rows = gather_nodes(with_loops, index)  # [B, K, N]
-    cols = gather_nodes(with_loops.transpose(1, 2), index).transpose(1, 2)  # [B, N, K]
-    squared = rows @ cols
+    squared = rows @ rows.transpose(1, 2)
     off_diagonal = ~torch.eye(index.shape[1], dtype=torch.bool, device=adj.device)
     keep = kept.unsqueeze(-1) & kept.unsqueeze(-2) & off_diagonal
     return squared * keep.to(adj.dtype)
