@@ -59,18 +59,30 @@ def prepare_adjacency(adj: Tensor, mask: Tensor, mode: str, min_edge_length: flo
         weights = torch.where(adj > 0, 1.0 / adj.clamp_min(min_edge_length), torch.zeros_like(adj))
     else:
         raise ValueError(f"unknown edge_weight mode {mode!r}")
-    valid_pair = mask.unsqueeze(-1) & mask.unsqueeze(-2)
-    off_diagonal = ~torch.eye(adj.shape[-1], dtype=torch.bool, device=adj.device)
-    return weights * (valid_pair & off_diagonal).to(adj.dtype)
+    return zero_diagonal(weights * pair_mask(mask, mask).to(adj.dtype))
+
+
+def pair_mask(rows: Tensor, cols: Tensor) -> Tensor:
+    """``[B, N, M]`` True where both the row's and the column's node are real."""
+    return rows.unsqueeze(-1) & cols.unsqueeze(-2)
+
+
+def zero_diagonal(adj: Tensor) -> Tensor:
+    """``adj`` (a fresh tensor) with its diagonal set to zero in place."""
+    adj.diagonal(dim1=-2, dim2=-1).zero_()
+    return adj
 
 
 def gcn_normalize(adj: Tensor, mask: Tensor, self_loop_weight: float = IMPROVED_SELF_LOOP_WEIGHT) -> Tensor:
-    """``D^-1/2 (A + w I) D^-1/2`` with self loops on real nodes only; padded rows stay zero."""
-    with_loops = adj + torch.diag_embed(self_loop_weight * mask.to(adj.dtype))
-    degree = with_loops.sum(-1)
+    """``D^-1/2 (A + w I) D^-1/2`` for ``adj`` with a zero diagonal, self loops on real
+    nodes only; padded rows stay zero."""
+    loops = self_loop_weight * mask.to(adj.dtype)
+    degree = adj.sum(-1) + loops
     inv_sqrt = torch.where(degree > 0, degree.clamp_min(torch.finfo(adj.dtype).tiny).rsqrt(),
                            torch.zeros_like(degree))
-    return inv_sqrt.unsqueeze(-1) * with_loops * inv_sqrt.unsqueeze(-2)
+    norm = inv_sqrt.unsqueeze(-1) * adj * inv_sqrt.unsqueeze(-2)
+    norm.diagonal(dim1=-2, dim2=-1).add_(loops * inv_sqrt.square())
+    return norm
 
 
 def used_node_slots(mask: Tensor) -> int:
@@ -165,12 +177,10 @@ def augmented_adjacency(adj: Tensor, mask: Tensor, index: Tensor, kept: Tensor) 
     """``(A + I)^2`` restricted to the kept nodes, diagonal dropped (PyG ``augment_adj``
     followed by ``filter_adj``). Only the kept rows are multiplied (``K x N x K`` instead
     of ``N^3``); ``A`` is symmetric, so the kept columns are the rows transposed."""
-    with_loops = adj + torch.diag_embed(mask.to(adj.dtype))
-    rows = gather_nodes(with_loops, index)  # [B, K, N]
+    loops = gather_nodes(mask.to(adj.dtype), index).unsqueeze(-1)  # the kept rows' "+ I"
+    rows = gather_nodes(adj, index).scatter_add(2, index.unsqueeze(-1), loops)  # [B, K, N]
     squared = rows @ rows.transpose(1, 2)
-    off_diagonal = ~torch.eye(index.shape[1], dtype=torch.bool, device=adj.device)
-    keep = kept.unsqueeze(-1) & kept.unsqueeze(-2) & off_diagonal
-    return squared * keep.to(adj.dtype)
+    return zero_diagonal(squared * pair_mask(kept, kept).to(adj.dtype))
 
 
 class DenseGraphUNet(nn.Module):

@@ -11,7 +11,7 @@ import yaml
 from tensordict import TensorDict
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from explore_rl.models.actor_critic import GraphActor, GraphCritic, make_actor, make_critic
+from explore_rl.models.actor_critic import Dropout, GraphActor, GraphCritic, make_actor, make_critic
 from explore_rl.models.config import ModelConfig
 from tests.models.graphs import N_FEATURES, pad, random_graphs
 
@@ -56,6 +56,15 @@ def test_dropout_is_active_in_training_only():
     torch.testing.assert_close(actor(*inputs), actor(*inputs))
     actor.train()
     assert not torch.allclose(actor(*inputs), actor(*inputs))
+
+
+def test_dropout_drops_a_fraction_p_and_rescales_the_rest():
+    torch.manual_seed(0)
+    dropout = Dropout(0.5).train()
+    out = dropout(torch.ones(200_000))
+    assert abs(float((out == 0).float().mean()) - 0.5) < 0.01
+    assert set(out.unique().tolist()) == {0.0, 2.0}
+    assert torch.equal(dropout.eval()(torch.ones(10)), torch.ones(10))
 
 
 def test_torchrl_modules_read_and_write_their_keys_with_leading_dims():
