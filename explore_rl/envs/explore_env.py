@@ -12,6 +12,10 @@ Each decision is evaluated when it is observed, so the observation also carries 
 choice (``em_action``) and the nearest frontier (``nearest_action``) of that state -- the
 labels an imitation term needs, aligned with the action taken there.
 
+An episode can be restored (:meth:`ExplorationEnv.restore`): the next reset re-runs
+episode ``k`` from its seed and replays the recorded actions, which reproduces the state
+exactly (everything in it is seeded). The trainer resumes a killed run this way.
+
 Nothing inside a step ends a training run: an EM error gives reward 0 for that step (and
 ``em_action = -1``); an error while driving or observing ends the episode as truncated
 with ``failed = True``. Both are logged and counted in :attr:`ExplorationEnv.failures`.
@@ -21,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import time
 from collections import Counter
 from dataclasses import dataclass
 
@@ -55,6 +58,7 @@ INFO_KEYS = (
     ("keyframes", torch.int64),
     ("blocked", torch.bool),
     ("failed", torch.bool),
+    ("episode", torch.int64),
 )
 
 
@@ -94,6 +98,7 @@ class ExplorationEnv(EnvBase):
         self.episode = 0
         self.max_nodes_seen = 0
         self._scenes: dict[int, Scene] = {}
+        self._pending_replay: tuple[int, list[int]] | None = None
         self._set_seed(config.seed)
         self._make_specs()
 
@@ -127,7 +132,6 @@ class ExplorationEnv(EnvBase):
         """Episode seeds and starts derive from ``seed`` (and the episode count)."""
         self.seed = int(self.config.seed if seed is None else seed)
         self.episode = 0
-        self._start_rng = np.random.default_rng([self.seed, 0])
 
     def episode_seed(self) -> int:
         return int(np.random.SeedSequence([self.seed, self.episode]).generate_state(1)[0])
@@ -139,8 +143,8 @@ class ExplorationEnv(EnvBase):
             mode = "cycle" if self.config.scene.name == "office" else "default"
         if mode == "cycle":
             return (self.seed + self.episode) % n_starts
-        if mode == "sample":
-            return int(self._start_rng.integers(n_starts))
+        if mode == "sample":  # a function of (seed, episode), so a replayed episode starts alike
+            return int(np.random.default_rng([self.seed, self.episode]).integers(n_starts))
         if mode == "default":
             return int(self.config.scene.start_index)
         raise ValueError(f"env.starts={mode!r}: choose auto, cycle, sample or default")
@@ -163,7 +167,13 @@ class ExplorationEnv(EnvBase):
 
     # ------------------------------------------------------------------ EnvBase
 
+    def restore(self, episode: int, actions: list[int]) -> None:
+        """Make the next reset re-run ``episode`` and replay ``actions`` (encoded rows)."""
+        self._pending_replay = (int(episode), [int(a) for a in actions])
+
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        if self._pending_replay is not None:
+            return self.replay(*self._pending_replay)
         for _ in range(RESET_ATTEMPTS):
             self.explorer = self.new_explorer()
             self.decision = self.observe()
@@ -177,21 +187,30 @@ class ExplorationEnv(EnvBase):
         out = self.observation(self.decision, self.explorer_info(None, failed=False))
         return out.update(self.full_done_spec.zero())
 
+    def replay(self, episode: int, actions: list[int]) -> TensorDictBase:
+        """Episode ``episode`` after ``actions``: the observation an uninterrupted run had."""
+        self._pending_replay = None
+        self.episode = episode
+        self.explorer = self.new_explorer()
+        self.decision = self.observe()
+        record = None
+        for row in actions:
+            if self.decision is None:
+                raise RuntimeError(f"replaying episode {episode}: it ended before action {row}")
+            _, record, failed = self.decide(self.validate_action(row, self.decision))
+            if failed:
+                raise RuntimeError(f"replaying episode {episode}: a step failed")
+        if self.decision is None:
+            raise RuntimeError(f"replaying episode {episode}: it ended with the last action")
+        log.info("episode %d restored after %d decisions", episode, len(actions))
+        out = self.observation(self.decision, self.explorer_info(record, failed=False))
+        return out.update(self.full_done_spec.zero())
+
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         decision = self.decision
         if decision is None:
             raise RuntimeError("step() called before reset() or after the episode ended: reset the env")
-        k = self.validate_action(int(tensordict.get("action")), decision)
-        reward = 0.0 if decision.rewards is None else float(decision.rewards[k])
-        record, failed = None, False
-        try:
-            with self.timer("drive"):
-                record = self.explorer.act(decision.state, decision.actions[k].candidate)
-            self.decision = self.observe()
-        except Exception:  # noqa: BLE001 -- one bad step must not end a training run
-            log.exception("episode %d: driving or observing failed; the episode ends truncated", self.episode - 1)
-            self.failures["step"] += 1
-            self.decision, failed = None, True
+        reward, record, failed = self.decide(self.validate_action(int(tensordict.get("action")), decision))
         status = self.explorer.result.status
         terminated = self.decision is None and not failed and status in TERMINATING
         truncated = self.decision is None and not terminated
@@ -202,6 +221,22 @@ class ExplorationEnv(EnvBase):
         out.set("truncated", torch.tensor([truncated]))
         out.set("done", torch.tensor([terminated or truncated]))
         return out
+
+    def decide(self, k: int) -> tuple[float, DecisionRecord | None, bool]:
+        """Take action ``k`` of the current decision: its reward, drive, observe the next.
+        Returns ``(reward, record, failed)``; ``self.decision`` is None once the episode ends."""
+        decision = self.decision
+        reward = 0.0 if decision.rewards is None else float(decision.rewards[k])
+        record, failed = None, False
+        try:
+            with self.timer("drive"):
+                record = self.explorer.act(decision.state, decision.actions[k].candidate)
+            self.decision = self.observe()
+        except Exception:  # noqa: BLE001 -- one bad step must not end a training run
+            log.exception("episode %d: driving or observing failed; the episode ends truncated", self.episode - 1)
+            self.failures["step"] += 1
+            self.decision, failed = None, True
+        return reward, record, failed
 
     def validate_action(self, action: int, decision: Decision) -> int:
         """Position in the action set of the frontier at row ``action``; a clear error otherwise."""
@@ -259,7 +294,8 @@ class ExplorationEnv(EnvBase):
                                                      metrics.loop_closures, metrics.keyframes)
             blocked = False
         return dict(explored=explored, map_error=map_error, travel=self.explorer.robot.travelled,
-                    loop_closures=loops, keyframes=keyframes, blocked=blocked, failed=failed)
+                    loop_closures=loops, keyframes=keyframes, blocked=blocked, failed=failed,
+                    episode=self.episode - 1)
 
     def observation(self, decision: Decision, info: dict, no_actions: bool = False) -> TensorDict:
         """The observation keys of ``decision``. ``no_actions``: a final observation (the

@@ -8,7 +8,9 @@ config, so it pickles; lambdas and env instances do not travel well.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Optional
+
+import numpy as np
 
 if TYPE_CHECKING:
     from torchrl.envs import EnvBase
@@ -16,19 +18,38 @@ if TYPE_CHECKING:
     from explore_rl.config import Config
 
 
-def make_env(config: Config, device: str = "cpu") -> EnvBase:
-    """The exploration environment for ``config`` (``explore_rl.config.load_config``)."""
+def make_env(config: Config, device: str = "cpu", worker: int = 0) -> EnvBase:
+    """The exploration environment for ``config`` (``explore_rl.config.load_config``).
+
+    ``worker`` (0, 1, ...) gives each parallel worker its own episode seeds.
+    """
     from explore_rl.envs.explore_env import ExplorationEnv
 
-    return ExplorationEnv(config, device=device)
+    env = ExplorationEnv(config, device=device)
+    env.set_seed(worker_seed(config.seed, worker))
+    return env
+
+
+def worker_seed(seed: int, worker: int) -> int:
+    """Seed of worker ``worker``'s env; worker 0 keeps ``seed`` itself."""
+    return int(seed) if worker == 0 else int(np.random.SeedSequence([seed, worker]).generate_state(1)[0])
 
 
 @dataclass
 class EnvFactory:
-    """``EnvFactory(config)()`` builds the environment (in whichever process calls it)."""
+    """``EnvFactory(config)()`` builds the environment (in whichever process calls it).
+
+    ``replay=(episode, actions)``: the env starts by re-running that episode up to where
+    a killed training run stopped (``ExplorationEnv.restore``).
+    """
 
     config: Config
     device: str = "cpu"
+    worker: int = 0
+    replay: Optional[tuple[int, list[int]]] = None
 
     def __call__(self) -> EnvBase:
-        return make_env(self.config, self.device)
+        env = make_env(self.config, self.device, self.worker)
+        if self.replay is not None:
+            env.restore(*self.replay)
+        return env
