@@ -1,4 +1,4 @@
-"""Hydra entry points: ``explore-rl-view`` (and later -explore, -train, -eval).
+"""Hydra entry points: ``explore-rl-view``, ``-tour``, ``-explore``, ``-compare``, ``-train``.
 
 The config directory is the repository's ``conf/`` (the package is installed editable by
 ``make``); ``hydra.job.chdir`` stays false so relative paths mean what the user typed.
@@ -199,3 +199,37 @@ def compare(cfg: DictConfig) -> None:
     figure = viz.save(comparison_figure(runs, scene_name), out_dir / f"{scene_name}_comparison.png")
     print("\n".join(lines))
     print(f"wrote {figure} and per-policy figures/CSVs in {out_dir}")
+
+
+def training_run_dir(config: Config) -> Path:
+    """``out``; under a sweep (``-m``) ``out/<the run's overrides>``; without ``out``,
+    Hydra's own output folder."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    hydra_config = HydraConfig.get()
+    if config.out is None:
+        return Path(hydra_config.runtime.output_dir)
+    if hydra_config.mode == RunMode.MULTIRUN:
+        return Path(config.out) / (hydra_config.job.override_dirname or f"run{hydra_config.job.num}")
+    return Path(config.out)
+
+
+@hydra.main(config_path=CONF_DIR, config_name="train", version_base="1.3")
+def train(cfg: DictConfig) -> None:
+    """Train the g-U-Net actor-critic with A2C (explore_rl/trainer/a2c.py)."""
+    from explore_rl.trainer.a2c import TrainingRun
+
+    config, _ = build_or_fail(cfg, lambda c: None)
+    run_dir = training_run_dir(config)
+    if not config.resume and (run_dir / "checkpoints" / "last.pt").exists():
+        fail(f"{run_dir} already holds a run: add resume=true to continue it, or choose another out=")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / ("config_resumed.yaml" if config.resume else "config.yaml")).write_text(OmegaConf.to_yaml(cfg))
+    try:
+        run = TrainingRun(config, run_dir)
+    except ValueError as error:  # bad checkpoint / incompatible resume
+        fail(str(error))
+    state = run.run()
+    print(f"{state.updates} updates, {state.frames} decisions, {len(run.episodes.finished)} episodes, "
+          f"{state.skipped_updates} skipped, {state.wall_s / 60:.1f} min; checkpoints in {run.checkpoints}")

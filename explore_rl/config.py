@@ -16,6 +16,7 @@ from hydra.core.config_store import ConfigStore
 from explore_rl.envs.config import EnvConfig
 from explore_rl.graph.config import GraphConfig
 from explore_rl.mapping.config import MappingConfig
+from explore_rl.models.config import ModelConfig
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.robot import RobotConfig
@@ -24,6 +25,15 @@ from explore_rl.scene.config import SceneConfig
 from explore_rl.sensors.lidar import LidarConfig
 from explore_rl.slam.config import SlamConfig
 from explore_rl.tour import TourConfig
+from explore_rl.trainer.config import (
+    BACKENDS,
+    ESTIMATORS,
+    LOGGERS,
+    AlgoConfig,
+    CollectorConfig,
+    LoggerConfig,
+    TrainConfig,
+)
 
 CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 
@@ -51,6 +61,13 @@ class Config:
     compare: CompareConfig = field(default_factory=CompareConfig)
     graph: GraphConfig = field(default_factory=GraphConfig)
     env: EnvConfig = field(default_factory=EnvConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
+    algo: AlgoConfig = field(default_factory=AlgoConfig)
+    collector: CollectorConfig = field(default_factory=CollectorConfig)
+    logger: LoggerConfig = field(default_factory=LoggerConfig)
+    train: TrainConfig = field(default_factory=TrainConfig)
+    # explore-rl-train: continue the run in `out` from its last checkpoint
+    resume: bool = False
 
 
 def register_configs() -> None:
@@ -117,6 +134,34 @@ def validate(config: Config) -> None:
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:
         raise ValueError(f"graph.max_nodes={config.graph.max_nodes} must exceed planning.actions.max_frontiers="
                          f"{config.planning.actions.max_frontiers} (the current pose and every frontier are nodes)")
+    config.model.validate()
+    validate_training(config)
     if config.lidar.tile_size < 0:
         raise ValueError(f"lidar.tile_size must be >= 0 (0 = cast on the full scene model), "
                          f"got {config.lidar.tile_size}")
+
+
+def validate_training(config: Config) -> None:
+    """The trainer's groups: algo, collector, logger, train."""
+    algo, collector, train = config.algo, config.collector, config.train
+    positive = {"algo.lr": algo.lr, "algo.gamma": algo.gamma, "algo.max_grad_norm": algo.max_grad_norm}
+    for key, value in positive.items():
+        if not value > 0:
+            raise ValueError(f"{key} must be positive, got {value}")
+    if not algo.gamma <= 1 or not 0 <= algo.lmbda <= 1:
+        raise ValueError(f"algo.gamma must be in (0, 1] and algo.lmbda in [0, 1], got {algo.gamma}, {algo.lmbda}")
+    for key in ("value_coef", "entropy_coef", "imitation_coef"):
+        if not getattr(algo, key) >= 0:
+            raise ValueError(f"algo.{key} must be >= 0, got {getattr(algo, key)}")
+    if algo.estimator not in ESTIMATORS:
+        raise ValueError(f"algo.estimator={algo.estimator!r}: choose one of {', '.join(ESTIMATORS)}")
+    at_least_one = {"algo.steps_per_update": algo.steps_per_update, "collector.workers": collector.workers,
+                    "train.frames": train.frames, "train.checkpoint_every": train.checkpoint_every,
+                    "train.threads": train.threads}
+    for key, value in at_least_one.items():
+        if value < 1:
+            raise ValueError(f"{key} must be >= 1, got {value}")
+    if collector.backend not in BACKENDS:
+        raise ValueError(f"collector.backend={collector.backend!r}: choose one of {', '.join(BACKENDS)}")
+    if config.logger.kind not in LOGGERS:
+        raise ValueError(f"logger.kind={config.logger.kind!r}: choose one of {', '.join(LOGGERS)}")

@@ -1,0 +1,282 @@
+"""A2C on exploration graphs (paper Sec. III-B) with TorchRL collectors, losses and loggers.
+
+One iteration: every worker takes ``algo.steps_per_update`` decisions with the current
+policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``), the batch
+``[workers, T]`` gets its advantages from a TorchRL value estimator (GAE by default, per
+worker so trajectories never join), ``A2CLoss`` (+ an optional imitation term towards
+EM's choice) gives one Adam step, the collectors receive the new weights.
+
+What is TorchRL's: collectors, ``ProbabilisticActor``/``MaskedCategorical``/``ValueOperator``
+(explore_rl/models), ``A2CLoss`` and its value estimators, ``CSVLogger``/``TensorboardLogger``.
+What is written here, and why: the loop itself (``torchrl.trainers.A2CTrainer`` is a
+prototype that warns on construction, and its checkpoints restore neither the
+environments' mid-episode state nor the RNG, which an exact resume needs); the NaN guard
+(skip an update, count it); the imitation term; per-episode exploration figures.
+
+Exact resume: a checkpoint holds the weights, the optimiser, the torch RNG, the counters
+and, per worker, the current episode's index and the actions taken in it. Resuming
+rebuilds each worker's env from a factory that replays that episode (every part of it is
+seeded), so with one worker the next update equals the uninterrupted run's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import torch
+from tensordict import TensorDictBase
+from torchrl.collectors import Collector, MultiSyncCollector
+from torchrl.envs.utils import ExplorationType
+from torchrl.objectives import A2CLoss, ValueEstimators
+
+from explore_rl.config import Config
+from explore_rl.envs.factory import EnvFactory, make_env
+from explore_rl.models.actor_critic import make_actor, make_critic
+from explore_rl.trainer.checkpoint import Checkpoint, check_weights, load_checkpoint, save_checkpoint
+from explore_rl.trainer.episodes import EpisodeTracker
+from explore_rl.trainer.logs import RunLogger
+
+log = logging.getLogger(__name__)
+
+N_FEATURES = 4  # x[N, 4]: uncertainty, distance, bearing, identity (explore_rl/graph)
+ESTIMATOR_TYPES = {"gae": ValueEstimators.GAE, "td_lambda": ValueEstimators.TDLambda,
+                   "td0": ValueEstimators.TD0}
+BEST_WINDOW = 20  # finished episodes averaged for the "best" checkpoint
+MAX_COLLECTOR_RESTARTS = 5  # per run: more means something is broken, not unlucky
+
+
+# ---------------------------------------------------------------------- the learner
+
+
+@dataclass
+class UpdateStats:
+    """Figures of one update (all floats, for the logger)."""
+
+    loss_objective: float
+    loss_critic: float
+    loss_entropy: float
+    loss_imitation: float
+    entropy: float
+    grad_norm: float
+
+
+class Learner:
+    """Actor, critic, ``A2CLoss`` with its value estimator, and Adam."""
+
+    def __init__(self, config: Config, action_spec=None):
+        algo = config.algo
+        self.config = config
+        self.actor = make_actor(config.model, N_FEATURES, action_spec)
+        self.critic = make_critic(config.model, N_FEATURES)
+        self.loss = A2CLoss(self.actor, self.critic, entropy_coeff=algo.entropy_coef,
+                            critic_coeff=algo.value_coef, loss_critic_type="smooth_l1")
+        # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace
+        hyper = {"gamma": algo.gamma, "deactivate_vmap": True}
+        if algo.estimator in ("gae", "td_lambda"):
+            hyper["lmbda"] = algo.lmbda
+        self.loss.make_value_estimator(ESTIMATOR_TYPES[algo.estimator], **hyper)
+        self.optimizer = torch.optim.Adam(self.loss.parameters(), lr=algo.lr)
+        self.skipped_updates = 0
+        self.set_training(False)
+
+    def set_training(self, on: bool) -> None:
+        """Dropout only inside an update; collection and evaluation act without it."""
+        self.actor.train(on)
+        self.critic.train(on)
+
+    def update(self, batch: TensorDictBase) -> UpdateStats | None:
+        """One A2C step on ``batch`` ``[workers, T]``; None (and a warning) if the loss or
+        the gradient is not finite: that update is skipped and counted."""
+        with torch.no_grad():
+            batch = self.loss.value_estimator(batch)  # advantage + value target, eval mode
+        self.set_training(True)
+        try:
+            losses = self.loss(batch)
+            total = losses["loss_objective"] + losses["loss_critic"] + losses["loss_entropy"]
+            imitation = self.imitation_loss(batch)
+            total = total + self.config.algo.imitation_coef * imitation
+            if not torch.isfinite(total):
+                return self.skip(f"loss is {total.item()}")
+            self.optimizer.zero_grad()
+            total.backward()
+            grad_norm = torch.nn.utils.clip_grad_norm_(self.loss.parameters(), self.config.algo.max_grad_norm)
+            if not torch.isfinite(grad_norm):
+                self.optimizer.zero_grad()
+                return self.skip(f"gradient norm is {grad_norm.item()}")
+            self.optimizer.step()
+        finally:
+            self.set_training(False)
+        return UpdateStats(
+            loss_objective=losses["loss_objective"].item(), loss_critic=losses["loss_critic"].item(),
+            loss_entropy=losses["loss_entropy"].item(), loss_imitation=imitation.item(),
+            entropy=losses["entropy"].item(), grad_norm=grad_norm.item())
+
+    def imitation_loss(self, batch: TensorDictBase) -> torch.Tensor:
+        """Cross-entropy of the policy towards EM's choice where EM gave one (0 if none,
+        or if ``algo.imitation_coef`` is 0: then the actor is not run twice)."""
+        labels = batch["em_action"]
+        known = labels >= 0
+        if self.config.algo.imitation_coef == 0 or not known.any():
+            return torch.zeros(())
+        dist = self.actor.get_dist(batch)
+        return -dist.log_prob(labels.clamp_min(0))[known].mean()
+
+    def skip(self, reason: str) -> None:
+        self.skipped_updates += 1
+        log.warning("update skipped (%s); %d skipped so far", reason, self.skipped_updates)
+        return None
+
+
+# ---------------------------------------------------------------------- collectors
+
+
+def make_collector(config: Config, actor, replays: list | None = None):
+    """The TorchRL collector of ``collector.workers`` env workers (see the module docstring).
+
+    ``replays[i]``: the episode worker ``i`` resumes (``EnvFactory.replay``), or None.
+    """
+    workers, steps = config.collector.workers, config.algo.steps_per_update
+    replays = replays or [None] * workers
+    factories = [EnvFactory(config, worker=i, replay=replays[i]) for i in range(workers)]
+    common = dict(frames_per_batch=workers * steps, total_frames=-1, auto_register_policy_transforms=False,
+                  exploration_type=ExplorationType.RANDOM)
+    if config.collector.backend == "ray":
+        ray_init = {"address": config.collector.ray_address} if config.collector.ray_address else {}
+        return Collector(factories, actor, backend="ray", num_collectors=workers, sync=True,
+                         backend_options={"ray_init_config": ray_init}, **common)
+    if workers == 1:
+        return Collector(factories[0], actor, **common)
+    return MultiSyncCollector(factories, actor, cat_results="stack", **common)
+
+
+def as_workers_by_time(batch: TensorDictBase, workers: int) -> TensorDictBase:
+    """``[workers, T]`` whatever the collector returned (``[T]`` or ``[workers * T]``)."""
+    if batch.ndim == 2:
+        return batch
+    return batch.reshape(workers, -1)
+
+
+# ---------------------------------------------------------------------- the run
+
+
+@dataclass
+class RunState:
+    """Counters of a training run (saved in every checkpoint)."""
+
+    updates: int = 0
+    frames: int = 0
+    skipped_updates: int = 0
+    wall_s: float = 0.0
+    best_reward: float = -math.inf
+    episodes: dict = field(default_factory=dict)  # EpisodeTracker.state_dict()
+
+
+class TrainingRun:
+    """One run folder: ``config.yaml``, ``checkpoints/``, ``logs/`` (see :func:`train`)."""
+
+    def __init__(self, config: Config, run_dir: Path):
+        self.config = config
+        self.dir = Path(run_dir)
+        self.checkpoints = self.dir / "checkpoints"
+        torch.set_num_threads(config.train.threads)
+        torch.manual_seed(config.seed)  # initial weights; a resumed run restores the RNG later
+        probe = make_env(config)  # specs only; builds no scene
+        self.learner = Learner(config, probe.action_spec)
+        self.state = RunState()
+        self.episodes = EpisodeTracker(config.collector.workers)
+        self.torch_rng: torch.Tensor | None = None
+        self.failed_collections = 0
+        if config.resume:
+            self.restore()
+        self.logger = RunLogger(self.dir / "logs", config.logger.kind, resume_at=self.state.frames,
+                                progress_total=config.train.frames if config.train.progress_bar else None,
+                                progress_start=self.state.frames)
+
+    def restore(self) -> None:
+        path = self.checkpoints / "last.pt"
+        checkpoint = load_checkpoint(path, self.config)
+        check_weights(path, "actor", checkpoint.actor, self.learner.actor)
+        check_weights(path, "critic", checkpoint.critic, self.learner.critic)
+        self.learner.actor.load_state_dict(checkpoint.actor)
+        self.learner.critic.load_state_dict(checkpoint.critic)
+        self.learner.optimizer.load_state_dict(checkpoint.optimizer)
+        self.state = RunState(**checkpoint.state)
+        self.learner.skipped_updates = self.state.skipped_updates
+        self.episodes.load_state_dict(self.state.episodes)
+        self.torch_rng = checkpoint.torch_rng
+        log.info("resuming %s at update %d (%d decisions)", path, self.state.updates, self.state.frames)
+
+    def run(self) -> RunState:
+        """Collect and update until ``train.frames`` decisions; checkpoint on the way.
+
+        A collector that raises (a worker died: an env error outside a step, e.g. at a
+        reset) is rebuilt with fresh episodes, up to ``MAX_COLLECTOR_RESTARTS`` times.
+        """
+        if self.state.frames >= self.config.train.frames:
+            log.info("nothing to do: %d of %d decisions already", self.state.frames, self.config.train.frames)
+            return self.state
+        collector = make_collector(self.config, self.learner.actor, self.episodes.replays())
+        if self.torch_rng is not None:
+            torch.set_rng_state(self.torch_rng)  # after building the collector, before acting
+        start, restarts = time.perf_counter() - self.state.wall_s, 0
+        try:
+            while self.state.frames < self.config.train.frames:
+                try:
+                    self.collect_and_update(collector, start)
+                except Exception:  # noqa: BLE001 -- the run goes on with new workers
+                    restarts += 1
+                    if restarts > MAX_COLLECTOR_RESTARTS:
+                        raise
+                    log.exception("collector failed; restarting it with fresh episodes (%d/%d)",
+                                  restarts, MAX_COLLECTOR_RESTARTS)
+                    self.failed_collections += 1
+                    collector.shutdown()
+                    collector = make_collector(self.config, self.learner.actor, self.episodes.abandon_running())
+            self.save("last")
+        finally:
+            collector.shutdown()
+            self.logger.close()
+        return self.state
+
+    def collect_and_update(self, collector, start: float) -> None:
+        for batch in collector:
+            self.iteration(as_workers_by_time(batch, self.config.collector.workers), start)
+            if self.state.frames >= self.config.train.frames:
+                return
+            collector.update_policy_weights_()
+
+    def iteration(self, batch: TensorDictBase, start: float) -> None:
+        """One update on a collected batch, then logs and checkpoints."""
+        update_start = time.perf_counter()
+        stats = self.learner.update(batch)
+        ms_update = 1e3 * (time.perf_counter() - update_start)
+        finished = self.episodes.add(batch)
+        state = self.state
+        state.frames += batch.numel()
+        state.updates += stats is not None
+        state.skipped_updates = self.learner.skipped_updates
+        state.wall_s = time.perf_counter() - start
+        self.logger.update(state.frames, batch, stats, finished, ms_update, state)
+        recent = self.episodes.recent_mean_reward(BEST_WINDOW)
+        if recent is not None and recent > state.best_reward and len(self.episodes.finished) >= BEST_WINDOW:
+            state.best_reward = recent
+            self.save("best")
+        if state.updates % self.config.train.checkpoint_every == 0:
+            self.save("last")
+
+    def save(self, name: str) -> Path:
+        self.state.episodes = self.episodes.state_dict()
+        return save_checkpoint(self.checkpoints / f"{name}.pt", Checkpoint(
+            config=self.config, actor=self.learner.actor.state_dict(), critic=self.learner.critic.state_dict(),
+            optimizer=self.learner.optimizer.state_dict(), state=dataclasses.asdict(self.state),
+            torch_rng=torch.get_rng_state()))
+
+
+def train(config: Config, run_dir: str | Path) -> RunState:
+    """Train (or, with ``config.resume``, continue) the run in ``run_dir``."""
+    return TrainingRun(config, Path(run_dir)).run()
