@@ -151,6 +151,20 @@ def test_all_padding_gives_zeros():
     assert torch.all(out == 0)
 
 
+def test_an_empty_graph_in_a_batch_gives_zeros_and_leaves_the_others_alone():
+    _, dense = pyg_and_dense()
+    graphs = random_graphs([12, 7], seed=11)
+    batch = pad(graphs)
+    batch["node_mask"][1] = False  # graph 1 has no real node (its tensors still hold junk)
+    alone = pad(graphs[:1])
+    out = dense(batch["x"], batch["adj"], batch["node_mask"])
+    torch.testing.assert_close(out[0], dense(alone["x"], alone["adj"], alone["node_mask"])[0],
+                               atol=1e-6, rtol=1e-6)
+    assert torch.all(out[1] == 0)
+    out.square().sum().backward()
+    assert all(torch.isfinite(p.grad).all() for p in dense.parameters())
+
+
 def test_used_node_slots_is_last_real_node_plus_one():
     mask = torch.tensor([[True, True, False, False, False], [False, False, True, False, False]])
     assert used_node_slots(mask) == 3
