@@ -237,7 +237,7 @@ class PygActorCritic(nn.Module):
                      n_slots: int) -> Tensor:
         from torch_geometric.utils import to_dense_batch
 
-        scores = self.actor_head(self.actor_unet(x, edge_index, batch, edge_weight))
+        scores = self.actor_head(self.actor_unet(x, edge_index, batch=batch, edge_weight=edge_weight))
         return to_dense_batch(scores, batch, max_num_nodes=n_slots)[0].squeeze(-1)
 
     def forward(self, batch: PolicyBatch) -> tuple[Tensor, Tensor]:
@@ -245,7 +245,8 @@ class PygActorCritic(nn.Module):
 
         x, edge_index, node_batch, edge_weight = batch.pyg
         logits = self.actor_logits(x, edge_index, node_batch, edge_weight, batch.x.shape[1])
-        scores = self.critic_head(self.critic_unet(x, edge_index, node_batch, edge_weight)).squeeze(-1)
+        features = self.critic_unet(x, edge_index, batch=node_batch, edge_weight=edge_weight)
+        scores = self.critic_head(features).squeeze(-1)
         return logits, scatter(scores, node_batch, reduce="mean")
 
 

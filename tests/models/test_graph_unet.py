@@ -38,7 +38,7 @@ def run_pyg(pyg: GraphUNet, graphs, weight_fn=lambda w: w) -> torch.Tensor:
     x, edge_index, batch, edge_weight = to_pyg(graphs)
     with warnings.catch_warnings():  # PyG's augment_adj: "sparse CSR support is in beta"
         warnings.simplefilter("ignore")
-        return pyg(x, edge_index, batch, weight_fn(edge_weight))
+        return pyg(x, edge_index, batch=batch, edge_weight=weight_fn(edge_weight))
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 7, 40, 129])
