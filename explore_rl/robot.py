@@ -11,6 +11,13 @@ the latest SLAM estimate (``correct_belief``). Every step is checked with the fo
 disc against the scene's analytic 2D geometry; a step that would enter an obstacle is not
 taken, and the path ends with status ``blocked``.
 
+With a ``guard`` (the local safety layer, explore_rl/local_planner.py, on by default in the
+runner) every step of :meth:`Robot.follow` is first checked against a LiDAR ring cast at
+the true pose and steered clear of what it sees; the adjusted step is an ordinary motion
+step (same noise, odometry = command). Without one, paths are followed as they always were.
+Either way the robot counts ``contacts`` (steps not taken because the true footprint would
+have entered an obstacle) and the least true footprint clearance of its steps.
+
 A blocked robot may stop with its footprint touching an obstacle; from there even a turn
 in place can fail (the motion noise moves it sideways into the obstacle). ``escape()``
 backs it off with ordinary motion steps: it picks the escape heading from the footprint
@@ -28,6 +35,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from explore_rl.geometry import se2_compose, wrap_angle
+from explore_rl.local_planner import SafetyConfig
 
 
 @dataclass
@@ -45,6 +53,8 @@ class RobotConfig:
     # turn in place first when the heading error to the next waypoint exceeds this
     heading_tolerance_deg: float = 10.0
     waypoint_tolerance: float = 0.05
+    # the local safety layer on the live scan (explore_rl/local_planner.py); enabled=false: off
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
 
 
 @dataclass
@@ -89,12 +99,17 @@ class Robot:
         is_free: Callable[[np.ndarray], np.ndarray],
         rng: np.random.Generator,
         clearance: Callable[[np.ndarray], np.ndarray] | None = None,
+        guard=None,
     ):
         """``clearance(xy)``: footprint clearance (m) at ``xy (..., 2)``, negative in
-        collision; only :meth:`escape` needs it."""
+        collision; :meth:`escape` needs it, and with it every step's true clearance is
+        measured (``min_clearance``). ``guard``: the local safety layer
+        (:class:`~explore_rl.local_planner.LocalPlanner`) that adjusts each step of
+        :meth:`follow`; None follows paths unguarded."""
         self.config = config
         self.is_free = is_free
         self.clearance = clearance
+        self.guard = guard
         self.rng = rng
         self.true_pose = np.asarray(start_pose, dtype=float).copy()
         self.odom_pose = self.true_pose.copy()
@@ -102,6 +117,10 @@ class Robot:
         self.travelled = 0.0
         self.elapsed = 0.0
         self.status: PathStatus = PathStatus.REACHED
+        # measured, never used to steer: motion steps whose true footprint would have entered
+        # an obstacle (not taken), and the least true footprint clearance of the steps taken
+        self.contacts = 0
+        self.min_clearance = float("inf")
 
     def correct_belief(self, pose: np.ndarray) -> None:
         """Replace the belief pose (e.g. by the SLAM estimate of the current keyframe)."""
@@ -110,12 +129,22 @@ class Robot:
     def follow(self, waypoints: np.ndarray) -> Iterator[MotionStep]:
         """Drive through ``waypoints (K, 2)`` (world frame), one motion step per yield.
 
-        Sets ``self.status`` to ``reached`` or ``blocked`` when the generator ends.
+        Sets ``self.status`` to ``reached`` or ``blocked`` when the generator ends. With a
+        ``guard`` every step is first adjusted by it (it may also end the waypoint, or give
+        up on the path: ``blocked``).
         """
         self.status = PathStatus.REACHED
-        for target in np.asarray(waypoints, dtype=float).reshape(-1, 2):
+        waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
+        for index, target in enumerate(waypoints):
+            if self.guard is not None:
+                self.guard.begin(target, final=index == len(waypoints) - 1)
             while True:
                 command = self.next_command(target)
+                if self.guard is not None:
+                    command = self.guard.adjust(self, target, command)
+                    if isinstance(command, str):
+                        self.status = PathStatus.BLOCKED
+                        return
                 if command is None:
                     break
                 step = self.execute(command)
@@ -144,7 +173,10 @@ class Robot:
         noise = self.rng.normal(0.0, [cfg.noise_xy, cfg.noise_xy, np.deg2rad(cfg.noise_yaw_deg)])
         new_true = se2_compose(self.true_pose, command + noise)
         if not bool(self.is_free(new_true[:2])):
+            self.contacts += 1
             return None
+        if self.clearance is not None:
+            self.min_clearance = min(self.min_clearance, float(self.clearance(new_true[:2])))
         self.true_pose = new_true
         self.odom_pose = se2_compose(self.odom_pose, command)
         self.belief_pose = se2_compose(self.belief_pose, command)

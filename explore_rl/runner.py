@@ -22,6 +22,7 @@ from enum import Enum
 
 import numpy as np
 
+from explore_rl.local_planner import make_local_planner
 from explore_rl.mapping.frontiers import Frontier, find_frontiers
 from explore_rl.mapping.paths import PathPlanner, path_length, simplify_path, traversability
 from explore_rl.planning.policies import Policy, make_policy
@@ -79,6 +80,15 @@ class DecisionRecord:
     path_status: str
     ms_decide: float
     ms_drive: float
+    # safety (run totals so far, like travel_m): motion steps whose true footprint touched an
+    # obstacle (not taken), the least true footprint clearance (m) of every step taken,
+    # decisions whose path ended blocked, steps the local safety layer changed
+    contacts: int = 0
+    min_clearance_m: float = float("inf")
+    blocked_decisions: int = 0
+    safety_interventions: int = 0
+    # time in the local safety layer during this decision's drive (ring casts included)
+    ms_safety: float = 0.0
 
 
 @dataclass
@@ -99,8 +109,11 @@ class Explorer:
         self.scene = scene or make_scene(config.scene, config.robot, config.lidar)
         start = self.scene.start_pose
         self.lidar = Lidar(self.scene, config.lidar, np.random.default_rng([config.seed, 1]))
+        # the local safety layer on its own LiDAR ring (None with robot.safety.enabled=false)
+        self.local_planner = make_local_planner(config.robot.safety, config.robot, self.scene, config.lidar,
+                                                np.random.default_rng([config.seed, 5]))
         self.robot = Robot(config.robot, start, self.scene.is_free, np.random.default_rng([config.seed, 2]),
-                           clearance=self.scene.footprint_clearance)
+                           clearance=self.scene.footprint_clearance, guard=self.local_planner)
         self.session = SlamSession(config.slam, config.mapping, self.scene, self.lidar, start,
                                    np.random.default_rng([config.seed, 3]))
         self.policy = policy or make_policy(config.policy, np.random.default_rng([config.seed, 4]),
@@ -110,6 +123,7 @@ class Explorer:
         self.result = ExplorationResult(Status.RUNNING)
         self.last_state: ExplorationState | None = None
         self.last_choice: int = -1
+        self._safety_seconds = 0.0  # the layer's time already booked to a decision
 
     # ------------------------------------------------------------------ observe
 
@@ -157,7 +171,8 @@ class Explorer:
     # ------------------------------------------------------------------ act
 
     def drive(self, candidate: Candidate) -> PathStatus:
-        """Follow a candidate's path with SLAM at every keyframe."""
+        """Follow a candidate's path with SLAM at every keyframe (each step checked by the
+        local safety layer, if on: ``Robot.follow``)."""
         self.move(self.robot.follow(simplify_path(candidate.path)[1:]))
         return self.robot.status
 
@@ -245,6 +260,10 @@ class Explorer:
                ms_decide: float, ms_drive: float) -> DecisionRecord:
         metrics = self.session.metrics()
         candidate = state.candidates[chosen]
+        local = self.local_planner
+        seconds_safety = 0.0 if local is None else local.seconds
+        ms_safety, self._safety_seconds = 1e3 * (seconds_safety - self._safety_seconds), seconds_safety
+        blocked = sum(r.path_status == PathStatus.BLOCKED.value for r in self.result.records)
         return DecisionRecord(
             decision=len(self.result.records), travel_m=self.robot.travelled,
             explored=metrics.explored, volume_m3=metrics.volume_m3, map_error_m=metrics.map_error_m,
@@ -253,6 +272,9 @@ class Explorer:
             chosen_x=float(candidate.frontier.waypoint_xy[0]), chosen_y=float(candidate.frontier.waypoint_xy[1]),
             path_length_m=candidate.length, path_status=path_status.value,
             ms_decide=ms_decide, ms_drive=ms_drive,
+            contacts=self.robot.contacts, min_clearance_m=self.robot.min_clearance,
+            blocked_decisions=blocked + (path_status is PathStatus.BLOCKED),
+            safety_interventions=0 if local is None else local.interventions, ms_safety=ms_safety,
         )
 
     def run(self, on_decision=None) -> ExplorationResult:
