@@ -164,3 +164,16 @@ def test_escape_is_a_no_op_when_clear_and_gives_up_cleanly_when_boxed_in():
     boxed = touching_robot([0.0, 0.0, 0.0], slot, lambda xy: slot(xy) >= 0, 0)
     assert list(boxed.escape(EscapeConfig())) == []
     assert boxed.status is PathStatus.BLOCKED
+
+
+def test_contacts_and_the_least_true_clearance_are_counted(rng):
+    clearance, is_free = walls(x_max=1.0)
+    robot = Robot(RobotConfig(), np.array([0.0, 0.0, 0.0]), is_free, rng, clearance=clearance)
+    steps = list(robot.follow(np.array([[3.0, 0.0]])))
+    assert robot.status is PathStatus.BLOCKED
+    assert robot.contacts == 1  # the step that would have entered the wall, not taken
+    assert robot.min_clearance == pytest.approx(min(clearance(s.true_pose[:2]) for s in steps))
+    assert 0.0 <= robot.min_clearance < RobotConfig().step_distance
+    unmeasured = Robot(RobotConfig(), np.zeros(3), is_free, rng)
+    list(unmeasured.follow(np.array([[3.0, 0.0]])))
+    assert unmeasured.contacts == 1 and unmeasured.min_clearance == float("inf")
