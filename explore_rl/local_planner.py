@@ -10,22 +10,27 @@ whatever the global map says; this module is that layer, between path following
   :class:`~explore_rl.sensors.lidar.Lidar` from the robot's *true* pose (the sensor rides
   on the real robot), range noise included; returns the obstacle points (floor dropped)
   in the body frame. Nothing here reads the analytic geometry or the SLAM map.
-* **Rule** (:class:`LocalPlanner`, a vector-field-histogram style heading choice): when
-  scan points come within ``radius + comfort + lookahead`` the nominal step is replaced
-  by the best of ``headings`` candidate directions. A direction is *feasible* if the
-  footprint swept along it for ``lookahead`` (or to the waypoint) keeps ``margin`` from
-  every scan point (or, already inside the margin, gets no closer than now). Among the
-  feasible ones it takes the cheapest ``|heading - bearing to target| + turn_weight *
-  |turn needed| + comfort_weight * (comfort - sweep clearance)+``; if that is the
-  direction to the target and the nominal step is itself feasible, the nominal step is
-  kept unchanged. The adjusted command is a turn in place (at most ``step_angle_deg``) or
-  a turn-then-translate step of at most ``step_distance``, forward or (to back off) in
-  reverse — an ordinary motion step: the same noise, odometry = commanded, and SLAM sees
-  it like any other motion.
-* **Giving up**: no feasible direction at all, or no progress towards the waypoint for
-  ``patience`` steps: a waypoint within ``reach_tolerance`` counts as reached (it lies
-  too close to an obstacle to stand on), otherwise the path ends ``blocked``, as a path
-  whose step would collide does without the layer.
+* **Rule** (:class:`LocalPlanner`, a vector-field-histogram style heading choice): while
+  no scan point comes within ``radius + comfort + lookahead`` the nominal step is kept.
+  Otherwise, a robot already inside ``margin`` (motion noise) first steps out of it:
+  forward or in reverse, turning at most ``step_angle_deg``. Else each of ``headings``
+  directions (plus the exact bearing to the waypoint) is *feasible* if the footprint
+  swept along it for ``lookahead`` (or to the waypoint) keeps ``margin`` from every scan
+  point, and costs ``|deviation from the bearing| + turn_weight * |turn| +
+  comfort_weight * (comfort - sweep clearance)+``; directions deviating more than
+  ``max_deviation_deg`` are never taken (no driving away from the goal). If the cheapest
+  is the bearing and the nominal step keeps the margin, the nominal step is kept
+  unchanged; otherwise the robot turns towards the chosen direction (at most
+  ``step_angle_deg`` per step) and, once it is within that, translates along it (at most
+  ``step_distance``). Every adjusted command is an ordinary motion step: the same noise,
+  odometry = commanded, and SLAM sees it like any other motion.
+* **Giving up**: no clear direction, or none within ``max_deviation_deg``, or, once the
+  layer has steered, no ``progress`` towards the waypoint for ``patience`` steps. A
+  waypoint given up within ``reach_tolerance`` (``corner_tolerance`` for a path's
+  intermediate waypoints) counts as reached — it lies too close to an obstacle to stand
+  on, as the belief or the map put it there; otherwise the path ends ``blocked``, as a
+  path whose step would collide does without the layer (which still happens if the
+  motion noise beats the margin: the robot counts those ``contacts``).
 
 ``robot.safety.enabled=false`` switches the layer off: the robot then follows paths
 exactly as before the layer existed (tests/test_local_planner.py compares trajectories).
@@ -33,8 +38,9 @@ exactly as before the layer existed (tests/test_local_planner.py compares trajec
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 import logging
+import time
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -100,8 +106,6 @@ class ObstacleRing:
         self.seconds = 0.0
 
     def __call__(self, true_pose: np.ndarray) -> np.ndarray:
-        import time
-
         start = time.perf_counter()
         scan = self.lidar.scan(true_pose)
         points = scan.points
@@ -162,6 +166,7 @@ class LocalPlanner:
         self.interventions = 0
         self.stops = 0
         self.seconds = 0.0
+        self.last_give_up: tuple[str, float, bool] | None = None  # (reason, distance, counted reached)
 
     # ------------------------------------------------------------------ perception
 
@@ -194,8 +199,6 @@ class LocalPlanner:
     def adjust(self, robot, target: np.ndarray, command: np.ndarray | None):
         """The step to execute instead of ``command`` (None = the waypoint is done), or
         ``"blocked"`` when the layer gives up on the path."""
-        import time
-
         start = time.perf_counter()
         try:
             return self._adjust(robot, np.asarray(target, dtype=float), command)
@@ -302,10 +305,29 @@ class LocalPlanner:
         return "blocked"
 
 
+def validate(safety: SafetyConfig) -> None:
+    """Raise with the key and the fix for values the layer cannot work with."""
+    checks = {
+        "margin": safety.margin >= 0, "comfort": safety.comfort >= 0, "comfort_weight": safety.comfort_weight >= 0,
+        "turn_weight": safety.turn_weight >= 0, "lookahead": safety.lookahead > 0, "headings": safety.headings >= 8,
+        "patience": safety.patience >= 1, "progress": safety.progress >= 0,
+        "reach_tolerance": safety.reach_tolerance >= 0, "corner_tolerance": safety.corner_tolerance >= 0,
+        "max_deviation_deg": 0 < safety.max_deviation_deg <= 180, "channels": safety.channels >= 1,
+        "azimuth_resolution_deg": safety.azimuth_resolution_deg > 0, "max_range": safety.max_range > 0,
+        "scan_every": safety.scan_every >= 1,
+    }
+    bad = [key for key, ok in checks.items() if not ok]
+    if bad:
+        values = ", ".join(f"robot.safety.{key}={getattr(safety, key)}" for key in bad)
+        raise ValueError(f"{values}: margins, weights, tolerances >= 0; lookahead, ranges, azimuth step > 0; "
+                         f"headings >= 8; patience, channels, scan_every >= 1; max_deviation_deg in (0, 180]")
+
+
 def make_local_planner(safety: SafetyConfig, robot_config, scene, lidar_config,
                        rng: np.random.Generator) -> LocalPlanner | None:
     """The layer for a robot in ``scene`` (None when ``safety.enabled`` is false)."""
     if not safety.enabled:
         return None
+    validate(safety)
     ring = ObstacleRing(make_ring_lidar(scene, safety, lidar_config, rng), safety.floor_height)
     return LocalPlanner(safety, robot_config, ring)

@@ -258,3 +258,11 @@ def test_switched_off_in_the_config_no_layer_is_built():
     assert explorer.local_planner is None and explorer.robot.guard is None
     rows = explorer.run().table()
     assert all(r["ms_safety"] == 0.0 and r["safety_interventions"] == 0 for r in rows)
+
+
+def test_bad_layer_settings_fail_with_the_key(office):
+    with pytest.raises(ValueError, match=r"robot.safety.headings=2.*robot.safety.scan_every=0"):
+        make_local_planner(SafetyConfig(headings=2, scan_every=0), RobotConfig(), office, LidarConfig(),
+                           np.random.default_rng(0))
+    assert make_local_planner(SafetyConfig(enabled=False, headings=2), RobotConfig(), office, LidarConfig(),
+                              np.random.default_rng(0)) is None
