@@ -46,6 +46,20 @@ class Dropout(nn.Module):
         return x * (torch.rand_like(x) >= self.p).to(x.dtype) / (1.0 - self.p)
 
 
+class FeatureScale(nn.Module):
+    """Multiplies node features by ``model.feature_scale`` (a buffer: saved with the weights)."""
+
+    def __init__(self, config: ModelConfig, n_features: int):
+        super().__init__()
+        if len(config.feature_scale) != n_features:
+            raise ValueError(f"model.feature_scale has {len(config.feature_scale)} entries for "
+                             f"{n_features} node features")
+        self.register_buffer("scale", torch.tensor(config.feature_scale, dtype=torch.float32))
+
+    def forward(self, x: Tensor) -> Tensor:
+        return x * self.scale
+
+
 def make_node_head(config: ModelConfig) -> nn.Sequential:
     """ReLU -> dropout -> MLP, one scalar per node. The U-Net's last GCN layer is linear;
     the ReLU before the head follows the authors' code. ``mlp_hidden=0``: one linear layer."""
@@ -67,11 +81,12 @@ class GraphActor(nn.Module):
 
     def __init__(self, config: ModelConfig, n_features: int):
         super().__init__()
+        self.scale = FeatureScale(config, n_features)
         self.unet = make_unet(config, n_features)
         self.head = make_node_head(config)
 
     def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
-        return node_scores(self.head, self.unet(x, adj, node_mask), node_mask.bool())
+        return node_scores(self.head, self.unet(self.scale(x), adj, node_mask), node_mask.bool())
 
 
 class GraphCritic(nn.Module):
@@ -79,12 +94,13 @@ class GraphCritic(nn.Module):
 
     def __init__(self, config: ModelConfig, n_features: int):
         super().__init__()
+        self.scale = FeatureScale(config, n_features)
         self.unet = make_unet(config, n_features)
         self.head = make_node_head(config)
 
     def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
         node_mask = node_mask.bool()
-        scores = node_scores(self.head, self.unet(x, adj, node_mask), node_mask)
+        scores = node_scores(self.head, self.unet(self.scale(x), adj, node_mask), node_mask)
         return masked_mean(scores, node_mask).unsqueeze(-1)
 
 

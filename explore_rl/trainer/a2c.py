@@ -97,7 +97,7 @@ class Learner:
         self.set_training(True)
         try:
             losses = self.loss(batch)
-            total = losses["loss_objective"] + losses["loss_critic"] + losses["loss_entropy"]
+            total = sum(value for key, value in losses.items() if key.startswith("loss_"))
             imitation = self.imitation_loss(batch)
             total = total + self.config.algo.imitation_coef * imitation
             if not torch.isfinite(total):
@@ -111,10 +111,11 @@ class Learner:
             self.optimizer.step()
         finally:
             self.set_training(False)
+        zero = torch.zeros(())  # A2CLoss leaves out the entropy terms when entropy_coef is 0
         return UpdateStats(
             loss_objective=losses["loss_objective"].item(), loss_critic=losses["loss_critic"].item(),
-            loss_entropy=losses["loss_entropy"].item(), loss_imitation=imitation.item(),
-            entropy=losses["entropy"].item(), grad_norm=grad_norm.item())
+            loss_entropy=losses.get("loss_entropy", zero).item(), loss_imitation=imitation.item(),
+            entropy=losses.get("entropy", zero).item(), grad_norm=grad_norm.item())
 
     def imitation_loss(self, batch: TensorDictBase) -> torch.Tensor:
         """Cross-entropy of the policy towards EM's choice where EM gave one (0 if none,

@@ -41,7 +41,7 @@ def test_critic_is_the_mean_over_real_nodes_and_ignores_padding():
     with torch.no_grad():
         value = critic(tight["x"], tight["adj"], tight["node_mask"])
         value_loose = critic(loose["x"], loose["adj"], loose["node_mask"])
-        node_scores = critic.head(critic.unet(tight["x"], tight["adj"], tight["node_mask"])).squeeze(-1)
+        node_scores = critic.head(critic.unet(critic.scale(tight["x"]), tight["adj"], tight["node_mask"])).squeeze(-1)
     assert value.shape == (2, 1)
     torch.testing.assert_close(value, value_loose, atol=1e-6, rtol=1e-6)
     torch.testing.assert_close(value[1, 0], node_scores[1, :5].mean())

@@ -1,0 +1,149 @@
+"""The A2C trainer: updates, the NaN guard, real worker processes, exact resume, bad input."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from explore_rl.config import load_config
+from explore_rl.envs import make_env
+from explore_rl.trainer.a2c import Learner, TrainingRun, make_collector, train
+from explore_rl.trainer.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
+
+# short, cheap episodes: a few frontiers per decision, a small travel budget
+FAST = ["scene=street", "slam=model", "planning.actions.max_frontiers=3", "explore.travel_budget=30",
+        "train.progress_bar=false", "algo.steps_per_update=5", "model.hidden=32", "model.mlp_hidden=32"]
+
+
+def config_for(*overrides: str):
+    return load_config([*FAST, *overrides])
+
+
+@pytest.fixture(scope="module")
+def batch():
+    """One real batch [1, 10] collected by a TorchRL Collector from the env."""
+    config = config_for("algo.steps_per_update=10")
+    torch.manual_seed(0)
+    learner = Learner(config, make_env(config).action_spec)
+    collector = make_collector(config, learner.actor)
+    data = next(iter(collector)).unsqueeze(0)
+    collector.shutdown()
+    return data
+
+
+def test_the_losses_decrease_on_a_fixed_batch(batch):
+    """With the value targets fixed (computed once), Adam steps on A2C's critic loss and
+    the imitation term fit the batch."""
+    torch.manual_seed(0)
+    config = config_for("algo.imitation_coef=1.0", "model.dropout=0.0")
+    learner = Learner(config, make_env(config).action_spec)
+    with torch.no_grad():
+        data = learner.loss.value_estimator(batch.clone())
+    optimizer = torch.optim.Adam(learner.loss.parameters(), lr=1e-2)
+    history = []
+    for _ in range(40):
+        losses = learner.loss(data)
+        critic, imitation = losses["loss_critic"], learner.imitation_loss(data)
+        optimizer.zero_grad()
+        (critic + imitation).backward()
+        optimizer.step()
+        history.append((critic.item(), imitation.item()))
+    assert history[-1][0] < 0.2 * history[0][0]
+    assert history[-1][1] < 0.2 * history[0][1]
+
+
+def test_an_update_changes_the_weights_and_reports_finite_figures(batch):
+    config = config_for("algo.imitation_coef=1.0")
+    learner = Learner(config, make_env(config).action_spec)
+    before = {k: v.clone() for k, v in learner.actor.state_dict().items()}
+    stats = learner.update(batch.clone())
+    assert all(torch.isfinite(torch.tensor(v)) for v in vars(stats).values())
+    assert stats.loss_imitation > 0 and stats.grad_norm > 0
+    assert any(not torch.equal(v, before[k]) for k, v in learner.actor.state_dict().items())
+
+
+def test_a_nan_loss_skips_the_update_and_counts_it(batch, caplog):
+    config = config_for()
+    learner = Learner(config, make_env(config).action_spec)
+    before = {k: v.clone() for k, v in learner.actor.state_dict().items()}
+    poisoned = batch.clone()
+    poisoned["next", "reward"][0, 3] = float("nan")
+    with caplog.at_level("WARNING"):
+        assert learner.update(poisoned) is None
+    assert learner.skipped_updates == 1
+    assert any("update skipped" in r.getMessage() for r in caplog.records)
+    for key, value in learner.actor.state_dict().items():
+        assert torch.equal(value, before[key]), key
+    assert learner.update(batch.clone()) is not None  # and the next good batch trains
+
+
+def test_the_sampled_action_is_always_a_frontier(batch):
+    assert bool(batch["action_mask"].gather(-1, batch["action"].unsqueeze(-1)).all())
+
+
+def test_resume_gives_the_same_next_update_as_an_uninterrupted_run(tmp_path):
+    uninterrupted, killed = tmp_path / "a", tmp_path / "b"
+    common = ["train.checkpoint_every=1", "algo.imitation_coef=1.0"]
+    train(config_for(*common, "train.frames=20"), uninterrupted)
+    train(config_for(*common, "train.frames=10"), killed)  # stops after 2 updates ...
+    state = train(config_for(*common, "train.frames=20", "resume=true"), killed)  # ... and resumes
+    assert state.updates == 4 and state.frames == 20
+    a = read_checkpoint(uninterrupted / "checkpoints" / "last.pt")
+    b = read_checkpoint(killed / "checkpoints" / "last.pt")
+    for key in a["actor"]:
+        assert torch.equal(a["actor"][key], b["actor"][key]), key
+    for key in a["critic"]:
+        assert torch.equal(a["critic"][key], b["critic"][key]), key
+    rows = (killed / "logs" / "a2c" / "scalars" / "reward.csv").read_text().splitlines()
+    assert [int(float(r.split(",")[0])) for r in rows] == [5, 10, 15, 20]
+
+
+def test_two_real_worker_processes_through_the_cli(tmp_path):
+    out = tmp_path / "run"
+    command = [sys.executable, "-c", "from explore_rl.cli import train; train()", *FAST,
+               "collector.workers=2", "algo.steps_per_update=2", "train.frames=8", f"out={out}"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "2 updates, 8 decisions" in done.stdout
+    checkpoint = read_checkpoint(out / "checkpoints" / "last.pt")
+    assert checkpoint["state"]["frames"] == 8 and len(checkpoint["state"]["episodes"]["running"]) == 2
+    again = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert again.returncode == 2 and "add resume=true" in again.stderr
+
+
+def test_bad_checkpoints_fail_with_one_line_naming_the_file(tmp_path):
+    config = config_for("train.frames=5")
+    train(config, tmp_path / "run")
+    path = tmp_path / "run" / "checkpoints" / "last.pt"
+    with pytest.raises(CheckpointError, match=r"last\.pt: model\.hidden is 32 in the checkpoint but 64"):
+        load_checkpoint(path, config_for("model.hidden=64"))
+    with pytest.raises(CheckpointError, match="no checkpoint there"):
+        load_checkpoint(tmp_path / "missing.pt", config)
+    corrupt = tmp_path / "corrupt.pt"
+    corrupt.write_bytes(b"not a checkpoint")
+    with pytest.raises(CheckpointError, match="corrupt.pt: not a readable checkpoint"):
+        load_checkpoint(corrupt, config)
+    # a different feature count: the first layer's weight no longer fits
+    payload = torch.load(path, weights_only=True)
+    first = next(k for k in payload["actor"] if k.endswith("weight"))
+    payload["actor"][first] = torch.zeros(*payload["actor"][first].shape[:-1], 7)
+    torch.save(payload, tmp_path / "features.pt")
+    (tmp_path / "resume" / "checkpoints").mkdir(parents=True)
+    (tmp_path / "features.pt").rename(tmp_path / "resume" / "checkpoints" / "last.pt")
+    with pytest.raises(CheckpointError, match="has shape .*a different feature count"):
+        TrainingRun(config_for("resume=true"), tmp_path / "resume")
+
+
+@pytest.mark.parametrize("override, message", [
+    ("algo.lr=-1", "algo.lr must be positive"),
+    ("algo.estimator=mc", "algo.estimator='mc'"),
+    ("collector.workers=0", "collector.workers must be >= 1"),
+    ("collector.backend=slurm", "collector.backend='slurm'"),
+    ("model.hidden=0", "model.hidden must be a positive int"),
+])
+def test_bad_training_configs_fail_at_start(override, message):
+    with pytest.raises(ValueError, match=message):
+        config_for(override)
