@@ -158,6 +158,8 @@ def validate_training(config: Config) -> None:
     at_least_one = {"algo.steps_per_update": algo.steps_per_update, "collector.workers": collector.workers,
                     "train.frames": train.frames, "train.checkpoint_every": train.checkpoint_every,
                     "train.threads": train.threads}
+    if train.snapshot_every < 0:
+        raise ValueError(f"train.snapshot_every must be >= 0 (0 = no snapshots), got {train.snapshot_every}")
     for key, value in at_least_one.items():
         if value < 1:
             raise ValueError(f"{key} must be >= 1, got {value}")

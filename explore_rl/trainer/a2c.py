@@ -267,8 +267,11 @@ class TrainingRun:
         if recent is not None and recent > state.best_reward and len(self.episodes.finished) >= BEST_WINDOW:
             state.best_reward = recent
             self.save("best")
-        if state.updates % self.config.train.checkpoint_every == 0:
+        if stats is not None and state.updates % self.config.train.checkpoint_every == 0:
             self.save("last")
+        snapshot = self.config.train.snapshot_every
+        if stats is not None and snapshot and state.updates % snapshot == 0:
+            self.save(f"update_{state.updates:05d}")
 
     def save(self, name: str) -> Path:
         self.state.episodes = self.episodes.state_dict()

@@ -49,5 +49,7 @@ class TrainConfig:
 
     frames: int = 20_000  # decisions in all, over every worker
     checkpoint_every: int = 10  # updates between checkpoints (the last one is always saved)
+    # updates between numbered snapshots checkpoints/update_<k>.pt (learning curves); 0 = none
+    snapshot_every: int = 0
     threads: int = 1  # torch threads of the learner (each env worker uses one core anyway)
     progress_bar: bool = True

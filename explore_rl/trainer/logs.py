@@ -2,7 +2,7 @@
 
 Every scalar is logged against the number of decisions collected so far. Per update:
 ``reward`` (Algorithm 1 reward per decision), ``em_agreement``, the losses, ``grad_norm``,
-``frames_per_s``, ``ms_update``, ``skipped_updates``. Per finished episode:
+``frames_per_s``, ``ms_update``, ``skipped_updates``, ``wall_s``, ``updates``. Per finished episode:
 ``episode/reward``, ``episode/explored``, ``episode/map_error``, ``episode/length``,
 ``episode/em_agreement``, ``episode/travel``, ``episode/failed``.
 """
@@ -67,7 +67,8 @@ class RunLogger:
         agreement = float((actions[labelled] == labels[labelled]).float().mean()) if labelled.any() else None
         reward = float(batch["next", "reward"].mean())
         values = {"reward": reward, "em_agreement": agreement, "ms_update": ms_update,
-                  "frames_per_s": frames / max(state.wall_s, 1e-9), "skipped_updates": state.skipped_updates}
+                  "frames_per_s": frames / max(state.wall_s, 1e-9), "skipped_updates": state.skipped_updates,
+                  "wall_s": state.wall_s, "updates": state.updates}
         if stats is not None:
             values.update(dataclasses.asdict(stats))
         self.scalars(frames, values)
