@@ -89,6 +89,21 @@ def load_config(overrides: Sequence[str] = ()) -> Config:
     return config
 
 
+def load_saved_config(path: str | Path, overrides: Sequence[str] = ()) -> Config:
+    """A config saved as YAML (a training run's ``config.yaml``), validated, with
+    command-line style ``overrides`` of plain keys applied (e.g. ``["explore.max_decisions=15"]``)."""
+    from omegaconf import OmegaConf
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path}: no saved config there")
+    merged = OmegaConf.merge(OmegaConf.structured(Config), OmegaConf.load(path),
+                             OmegaConf.from_dotlist(list(overrides)))
+    config: Config = OmegaConf.to_object(merged)  # type: ignore[assignment]
+    validate(config)
+    return config
+
+
 def validate(config: Config) -> None:
     """Checks a type system can't express; raise with the key and the fix."""
     if config.scene.name == "file" and not config.scene.path:
