@@ -147,3 +147,15 @@ def test_bad_checkpoints_fail_with_one_line_naming_the_file(tmp_path):
 def test_bad_training_configs_fail_at_start(override, message):
     with pytest.raises(ValueError, match=message):
         config_for(override)
+
+
+def test_a_sweep_puts_each_run_in_its_own_folder(tmp_path):
+    command = [sys.executable, "-c", "from explore_rl.cli import train; train()", "-m", "seed=0,1", *FAST,
+               "algo.steps_per_update=2", "train.frames=2", f"out={tmp_path}"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    folders = sorted(p.name for p in tmp_path.iterdir())
+    assert len(folders) == 2 and "seed=0" in folders[0].split(",") and "seed=1" in folders[1].split(",")
+    for folder in folders:
+        assert (tmp_path / folder / "checkpoints" / "last.pt").is_file()
+        assert (tmp_path / folder / "config.yaml").is_file()
