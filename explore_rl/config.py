@@ -133,7 +133,7 @@ def validate(config: Config) -> None:
     if config.slam.frontend not in ("icp", "model"):
         raise ValueError(f"slam.frontend={config.slam.frontend!r}: choose slam=icp or slam=model")
     if config.policy.name not in ("nearest", "random", "em", "learned"):
-        raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random or em")
+        raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random, em or learned")
     if not 0 < config.explore.target_explored <= 1:
         raise ValueError(f"explore.target_explored must be in (0, 1], got {config.explore.target_explored}")
     if config.lidar.channels < 1:

@@ -117,7 +117,7 @@ class Explorer:
         self.session = SlamSession(config.slam, config.mapping, self.scene, self.lidar, start,
                                    np.random.default_rng([config.seed, 3]))
         self.policy = policy or make_policy(config.policy, np.random.default_rng([config.seed, 4]),
-                                            planning=config.planning, robot=config.robot)
+                                            planning=config.planning, robot=config.robot, graph=config.graph)
         self.skipped_cells: set[tuple[int, int]] = set()
         self.visited_waypoints = np.zeros((0, 2))
         self.result = ExplorationResult(Status.RUNNING)

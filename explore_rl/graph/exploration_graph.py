@@ -156,11 +156,28 @@ def graph_from_state(state: ExplorationState, context: DecisionContext,
     marginals and the virtual map; ``actions`` the frontiers (nearest first) and their
     predicted revisits.
     """
-    pose_uncertainty = np.trace(context.pose_covs[:, :2, :2], axis1=1, axis2=2)
-    frontier_xy = np.array([state.candidates[a.candidate].frontier.waypoint_xy for a in actions])
-    frontier_covs = context.vmap.frontier_landmark_covariance(frontier_xy, context.landmark_covs)
+    frontier_covs = context.vmap.frontier_landmark_covariance(action_frontiers(state, actions),
+                                                              context.landmark_covs)
+    return graph_from_estimates(state, actions, context.poses, context.pose_covs, frontier_covs,
+                                factor_edges(context.graph.edges))
+
+
+def action_frontiers(state: ExplorationState, actions: list[Action]) -> np.ndarray:
+    """``(F, 2)`` waypoints of the action set's frontiers, nearest first."""
+    return np.array([state.candidates[a.candidate].frontier.waypoint_xy for a in actions]).reshape(-1, 2)
+
+
+def graph_from_estimates(state: ExplorationState, actions: list[Action], poses: np.ndarray,
+                         pose_covs: np.ndarray, frontier_covs: np.ndarray,
+                         pose_edges: np.ndarray) -> ExplorationGraph:
+    """The exploration graph from keyframe estimates ``poses (K, 3)``, their world-frame
+    covariances ``pose_covs (K, 3, 3)`` (only the xy block is read), the action frontiers'
+    virtual-landmark covariances ``frontier_covs (F, 2, 2)`` and the factor pairs.
+
+    :func:`graph_from_state` reads these from EM's decision context; the learned policy
+    computes only what the graph needs (explore_rl/planning/learned.py)."""
+    pose_uncertainty = np.trace(pose_covs[:, :2, :2], axis1=1, axis2=2)
     frontier_uncertainty = np.trace(frontier_covs, axis1=1, axis2=2)
     revisits = [[r.keyframe_index for r in a.prediction.revisits] for a in actions]
-    return build_graph(context.poses[:, :2], pose_uncertainty, factor_edges(context.graph.edges),
-                       frontier_xy, frontier_uncertainty, revisits,
-                       frontier_candidates=[a.candidate for a in actions])
+    return build_graph(poses[:, :2], pose_uncertainty, pose_edges, action_frontiers(state, actions),
+                       frontier_uncertainty, revisits, frontier_candidates=[a.candidate for a in actions])

@@ -12,14 +12,17 @@ TorchRL modules that read and write those tensordict keys.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import torch
-from tensordict.nn import TensorDictModule
 from torch import Tensor, nn
-from torchrl.data import TensorSpec
-from torchrl.modules import MaskedCategorical, ProbabilisticActor, ValueOperator
 
 from explore_rl.models.config import ModelConfig
 from explore_rl.models.graph_unet import DenseGraphUNet, packed_rows
+
+if TYPE_CHECKING:
+    from torchrl.data import TensorSpec
+    from torchrl.modules import ProbabilisticActor, ValueOperator
 
 OBSERVATION_KEYS = ["x", "adj", "node_mask"]
 ACTION_MASK_KEY = "action_mask"
@@ -115,6 +118,11 @@ def make_actor(config: ModelConfig, n_features: int, action_spec: TensorSpec | N
     """The policy as a TorchRL actor: reads ``x``, ``adj``, ``node_mask``, ``action_mask``;
     writes ``logits``, ``action`` (a node index) and, by default, its log-probability.
     Outside ``set_exploration_type(RANDOM)`` (collectors set it) it picks the best node."""
+    # TorchRL loads here, not at import: importing torchrl.modules pulls in MuJoCo, and the
+    # networks above are what a deployment (explore_rl.deploy) needs, without either.
+    from tensordict.nn import TensorDictModule
+    from torchrl.modules import MaskedCategorical, ProbabilisticActor
+
     config.validate()
     module = TensorDictModule(GraphActor(config, n_features), in_keys=OBSERVATION_KEYS,
                               out_keys=["logits"])
@@ -125,6 +133,8 @@ def make_actor(config: ModelConfig, n_features: int, action_spec: TensorSpec | N
 
 def make_critic(config: ModelConfig, n_features: int) -> ValueOperator:
     """The value function as a TorchRL ``ValueOperator`` writing ``state_value``."""
+    from torchrl.modules import ValueOperator
+
     config.validate()
     return ValueOperator(GraphCritic(config, n_features), in_keys=OBSERVATION_KEYS,
                          out_keys=["state_value"])

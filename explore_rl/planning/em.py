@@ -189,7 +189,12 @@ class Observations:
 
     @classmethod
     def of(cls, vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray) -> Observations:
-        pose_idx, landmark_idx = vmap.visible_pairs(poses, blocked)
+        return cls.of_pairs(vmap, poses, *vmap.visible_pairs(poses, blocked))
+
+    @classmethod
+    def of_pairs(cls, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray,
+                 landmark_idx: np.ndarray) -> Observations:
+        """The observations of given (pose, landmark) pairs (in pose order)."""
         h_x, h_l = range_bearing_jacobians(poses[pose_idx], vmap.landmark_xy[landmark_idx],
                                            vmap.config.min_range)
         h_l_inv = np.linalg.inv(h_l)

@@ -7,7 +7,7 @@ policy implement the same :class:`Policy` protocol.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Optional, Protocol
 
 import numpy as np
 
@@ -17,12 +17,15 @@ if TYPE_CHECKING:
 
 @dataclass
 class PolicyConfig:
-    """The ``policy`` config group. ``name``: nearest, random, em (or learned, later).
+    """The ``policy`` config group. ``name``: nearest, random, em or learned.
 
     EM evaluates the decision's action set, ``planning.actions`` (one set for the
-    exploration graph, EM and the reward)."""
+    exploration graph, EM and the reward). ``learned`` reads its actor from ``checkpoint``:
+    an actor file (``explore-rl-export``) or a training checkpoint; the default is the
+    shipped policy (explore_rl/planning/learned.py)."""
 
     name: str = "nearest"
+    checkpoint: Optional[str] = "policies/office_a2c/actor.pt"
 
 
 class Policy(Protocol):
@@ -54,8 +57,10 @@ class RandomFrontier:
         return int(self.rng.integers(len(state.candidates)))
 
 
-def make_policy(config: PolicyConfig, rng: np.random.Generator, **context) -> Policy:
-    """The policy named by ``config.name``."""
+def make_policy(config: PolicyConfig, rng: np.random.Generator, planning=None, robot=None,
+                graph=None) -> Policy:
+    """The policy named by ``config.name``; ``planning`` (PlanningConfig), ``robot``
+    (RobotConfig) and ``graph`` (GraphConfig) configure the planners that need them."""
     if config.name == "nearest":
         return NearestFrontier()
     if config.name == "random":
@@ -63,5 +68,9 @@ def make_policy(config: PolicyConfig, rng: np.random.Generator, **context) -> Po
     if config.name == "em":
         from explore_rl.planning.em import EMPlanner
 
-        return EMPlanner(config, **context)
-    raise ValueError(f"unknown policy.name={config.name!r}; choose nearest, random or em")
+        return EMPlanner(config, planning, robot=robot)
+    if config.name == "learned":
+        from explore_rl.planning.learned import LearnedPolicy
+
+        return LearnedPolicy(config, planning, graph=graph)
+    raise ValueError(f"unknown policy.name={config.name!r}; choose nearest, random, em or learned")

@@ -12,11 +12,12 @@ import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import torch
 
-from explore_rl.config import Config
+if TYPE_CHECKING:  # not imported at run time: explore_rl.config pulls in the simulator and SLAM
+    from explore_rl.config import Config
 
 FORMAT = "explore_rl.a2c/1"
 MODEL_KEYS_THAT_SHAPE_WEIGHTS = ("hidden", "depth", "mlp_hidden", "sum_res")
@@ -55,26 +56,32 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> Path:
     return path
 
 
-def read_checkpoint(path: Path) -> dict:
-    """The raw payload of ``path``; CheckpointError if it is missing or not ours."""
+def read_checkpoint(path: Path, formats: tuple[str, ...] = (FORMAT,),
+                    missing_hint: str = "train first, or check the path / out=") -> dict:
+    """The raw payload of ``path``; CheckpointError if it is missing or not ours.
+
+    ``formats``: the format tags accepted (actor files, explore_rl/models/actor_file.py,
+    add theirs); ``missing_hint``: what the error for a missing file tells the user to do."""
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"{path}: no checkpoint there (train first, or check the path / out=)")
+        raise CheckpointError(f"{path}: no checkpoint there ({missing_hint})")
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as error:  # noqa: BLE001 -- any unreadable file gets the same one-line error
         raise CheckpointError(f"{path}: not a readable checkpoint ({type(error).__name__}: "
                               f"{str(error).splitlines()[0] if str(error) else ''})") from None
-    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+    if not isinstance(payload, dict) or payload.get("format") not in formats:
         found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-        raise CheckpointError(f"{path}: not an explore_rl training checkpoint (format {found!r}, "
-                              f"expected {FORMAT!r})")
+        expected = repr(formats[0]) if len(formats) == 1 else "one of " + ", ".join(map(repr, formats))
+        raise CheckpointError(f"{path}: not an explore_rl {'training ' if formats == (FORMAT,) else ''}"
+                              f"checkpoint (format {found!r}, expected {expected})")
     return payload
 
 
 def check_model(path: Path, saved: dict, config: Config) -> None:
-    """The saved model must have the config's shape: name the first field that differs."""
-    current = dataclasses.asdict(config.model)
+    """The saved model must have the config's shape: name the first field that differs.
+    ``config``: a :class:`Config` or just its ``model`` (a ``ModelConfig``)."""
+    current = dataclasses.asdict(getattr(config, "model", config))
     for key in MODEL_KEYS_THAT_SHAPE_WEIGHTS:
         if saved.get(key) != current.get(key):
             raise CheckpointError(f"{path}: model.{key} is {saved.get(key)!r} in the checkpoint but "

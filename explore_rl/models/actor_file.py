@@ -1,0 +1,145 @@
+"""Actor files: the trained policy alone (weights + model config + a format tag), for
+evaluation and deployment.
+
+A training checkpoint (explore_rl/trainer/checkpoint.py) also holds the critic, the
+optimiser and the run's counters -- three times the size, and tied to the trainer. An
+actor file holds what choosing a frontier needs:
+
+* ``format``: ``"explore_rl.actor/1"``;
+* ``model``: the ``ModelConfig`` as a dict (the network is rebuilt from it, so the file
+  carries its own size: hidden 1000 is ~25 MB of float32);
+* ``features``: the node features the actor reads, in order (the exploration graph's);
+* ``actor``: the ``GraphActor`` state dict; ``graph_max_nodes``: the padding it was trained
+  with; ``meta``: where it came from (run, updates, decisions, scene, front end).
+
+:func:`load_actor` also accepts a training checkpoint (its actor is used), so
+``policy.checkpoint=RUN/checkpoints/best.pt`` works before anything is exported. Every
+failure -- missing, unreadable, not ours, a model that does not match the file's weights
+or the caller's expectation, a different feature count -- is a :class:`CheckpointError`
+with one line naming the file and what does not match (the checks are checkpoint.py's).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from explore_rl.graph.exploration_graph import FEATURES
+from explore_rl.models.actor_critic import GraphActor
+from explore_rl.models.config import ModelConfig
+from explore_rl.trainer.checkpoint import FORMAT as TRAINING_FORMAT
+from explore_rl.trainer.checkpoint import CheckpointError, check_model, check_weights, read_checkpoint
+
+ACTOR_FORMAT = "explore_rl.actor/1"
+DEFAULT_ACTOR = "policies/office_a2c/actor.pt"  # the shipped policy (relative to the repository)
+TRAINING_PREFIX = "module.0.module."  # ProbabilisticActor -> TensorDictModule -> GraphActor
+HOW_TO_GET_ONE = ("train one with `explore-rl-train scene=office slam=model out=runs/office`, then "
+                  "`explore-rl-export runs/office/checkpoints/best.pt " + DEFAULT_ACTOR + "`")
+
+
+@dataclass
+class ActorFile:
+    """The contents of an actor file (or the actor part of a training checkpoint)."""
+
+    model: ModelConfig
+    weights: dict[str, torch.Tensor]  # GraphActor state dict
+    features: list[str] = field(default_factory=lambda: list(FEATURES))
+    graph_max_nodes: int = 512
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_features(self) -> int:
+        return len(self.features)
+
+
+def resolve(path: str | Path | None) -> Path:
+    """``path``; None or the default ``policies/office_a2c/actor.pt`` mean the shipped policy,
+    found from the working directory or else in the repository this package lives in."""
+    if path in (None, "") or Path(path) == Path(DEFAULT_ACTOR):
+        local = Path(DEFAULT_ACTOR)
+        repository = Path(__file__).resolve().parents[2] / DEFAULT_ACTOR
+        return local if local.exists() or not repository.exists() else repository
+    return Path(path)
+
+
+def read_actor_file(path: str | Path) -> ActorFile:
+    """The actor of an actor file or a training checkpoint; CheckpointError if unusable."""
+    path = Path(path)
+    payload = read_checkpoint(path, formats=(ACTOR_FORMAT, TRAINING_FORMAT), missing_hint=HOW_TO_GET_ONE)
+    try:
+        model = ModelConfig(**payload["model"])
+        model.validate()
+    except (KeyError, TypeError, ValueError) as error:
+        raise CheckpointError(f"{path}: its model config is not usable ({error})") from None
+    if payload["format"] == TRAINING_FORMAT:
+        weights = {key[len(TRAINING_PREFIX):]: value for key, value in payload["actor"].items()
+                   if key.startswith(TRAINING_PREFIX)}
+        config = payload.get("config", {})
+        meta = {"source": str(path), "kind": "training checkpoint", **payload.get("state", {})}
+        meta.pop("episodes", None)
+        meta.update(scene=config.get("scene", {}).get("name"), slam=config.get("slam", {}).get("frontend"),
+                    seed=config.get("seed"))
+        return ActorFile(model, weights, list(FEATURES), int(config.get("graph", {}).get("max_nodes", 512)), meta)
+    return ActorFile(model, payload["actor"], list(payload.get("features", FEATURES)),
+                     int(payload.get("graph_max_nodes", 512)), dict(payload.get("meta", {})))
+
+
+def build_actor(path: str | Path, actor_file: ActorFile, expected_model: ModelConfig | None = None) -> GraphActor:
+    """The checked ``GraphActor`` of ``actor_file`` (read from ``path``), in eval mode."""
+    path = Path(path)
+    if actor_file.features != list(FEATURES):
+        raise CheckpointError(f"{path}: the actor reads {actor_file.n_features} node features "
+                              f"{actor_file.features}, the exploration graph gives {len(FEATURES)} {list(FEATURES)}")
+    if expected_model is not None:
+        check_model(path, dataclasses.asdict(actor_file.model), expected_model)
+    try:
+        actor = GraphActor(actor_file.model, actor_file.n_features)
+    except ValueError as error:  # e.g. feature_scale of the wrong length
+        raise CheckpointError(f"{path}: {error}") from None
+    check_weights(path, "actor", actor_file.weights, actor)
+    actor.load_state_dict(actor_file.weights)
+    return actor.eval()
+
+
+def load_actor(path: str | Path | None = None, expected_model: ModelConfig | None = None
+               ) -> tuple[GraphActor, ActorFile]:
+    """The actor of ``path`` (default: the shipped policy), checked, in eval mode.
+
+    ``expected_model``: fail unless the file's model has this shape (hidden, depth, ...)."""
+    path = resolve(path)
+    actor_file = read_actor_file(path)
+    return build_actor(path, actor_file, expected_model), actor_file
+
+
+def save_actor_file(path: str | Path, actor_file: ActorFile) -> Path:
+    """Write ``actor_file`` atomically (a temporary file renamed into place)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    payload = {
+        "format": ACTOR_FORMAT,
+        "model": dataclasses.asdict(actor_file.model),
+        "features": list(actor_file.features),
+        "graph_max_nodes": int(actor_file.graph_max_nodes),
+        "actor": {key: value.detach().to(torch.float32).contiguous().clone() for key, value in actor_file.weights.items()},
+        "meta": actor_file.meta,
+    }
+    partial = path.with_name(path.name + ".tmp")
+    torch.save(payload, partial)
+    os.replace(partial, path)
+    return path
+
+
+def export_actor_file(checkpoint: str | Path, out: str | Path) -> Path:
+    """An actor file at ``out`` from a training checkpoint (or another actor file), checked
+    by loading it back."""
+    checkpoint = Path(checkpoint)
+    actor_file = read_actor_file(checkpoint)
+    build_actor(checkpoint, actor_file)  # the weights fit the model before anything is written
+    path = save_actor_file(out, actor_file)
+    load_actor(path)
+    return path
