@@ -2,8 +2,10 @@
 
 Runs every (scene, policy, seed) exploration with the chosen SLAM front end in parallel
 worker processes, then writes to ``benchmarks/results/``: a table (mean and std per policy
-and scene), per-scene plots of map error and 3D volume against travel distance, and the
-raw per-decision CSVs. The last stdout line is JSON with the table and the ordering checks:
+and scene), per-scene plots of map error and 3D volume against travel distance (mean over
+seeds with a +-1 std band), and the per-run CSV. The trials, the table and the plots are
+``explore_rl.comparison``'s, as for ``explore-rl-eval``. The last stdout line is JSON with
+the table and the ordering checks:
 
 * EM ends with lower map error than nearest frontier (paper: EM has the lowest error);
 * nearest frontier covers the most ground per metre; random covers the least.
@@ -22,63 +24,41 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import tempfile
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import tempfile
 from pathlib import Path
-
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine  # noqa: E402
+
+from explore_rl import comparison  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 POLICIES = ["nearest", "em", "random"]
 
 
-def explore_once(scene: str, policy: str, seed: int, frontend: str, extra: tuple[str, ...]) -> dict:
-    """One exploration; returns its per-decision table and final figures."""
+def make_trials(scenes: list[str], seeds: int, frontend: str, extra: tuple[str, ...],
+                done: set[tuple[str, str, int]]) -> list[comparison.Trial]:
+    """Seed-major order (an interrupted study still holds whole (scene, policy) sets per
+    seed), without the runs already in the log."""
     from explore_rl.config import load_config
-    from explore_rl.runner import Explorer
 
-    overrides = [f"scene={scene}", f"policy={policy}", f"seed={seed}", f"slam={frontend}",
-                 "explore.progress_bar=false", *extra]
-    explorer = Explorer(load_config(overrides))
-    result = explorer.run()
-    rows = result.table()
-    last = rows[-1] if rows else {}
-    return {
-        "scene": scene, "policy": policy, "seed": seed, "status": result.status.value,
-        "decisions": len(rows), "travel_m": explorer.robot.travelled,
-        "explored": last.get("explored", 0.0), "map_error_m": last.get("map_error_m", 0.0),
-        "volume_m3": last.get("volume_m3", 0.0), "loop_closures": last.get("loop_closures", 0),
-        "ate_m": last.get("ate_m", 0.0), "rows": rows,
-    }
+    configs = {scene: load_config([f"scene={scene}", f"slam={frontend}", "seed=0", "explore.progress_bar=false",
+                                   *extra]) for scene in scenes}
+    trials = [comparison.Trial(comparison.trial_config(configs[scene], policy, seed), seed)
+              for seed in range(seeds) for scene in scenes for policy in POLICIES]
+    return [t for t in trials if (t.scene, t.policy, t.trial) not in done]
 
 
 def read_runs(path: Path) -> list[dict]:
     """Runs already logged (one JSON object a line) by an earlier, interrupted study."""
-    if not path.exists():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-
-
-def summarise(runs: list[dict]) -> list[dict]:
-    table = []
-    for scene in sorted({r["scene"] for r in runs}):
-        for policy in POLICIES:
-            group = [r for r in runs if r["scene"] == scene and r["policy"] == policy]
-            if not group:
-                continue
-            entry = {"scene": scene, "policy": policy, "runs": len(group)}
-            for key in ("travel_m", "explored", "map_error_m", "volume_m3", "loop_closures", "ate_m"):
-                values = np.array([r[key] for r in group], dtype=float)
-                entry[key] = round(float(values.mean()), 4)
-                entry[key + "_std"] = round(float(values.std()), 4)
-            per_metre = np.array([r["explored"] / max(r["travel_m"], 1e-9) for r in group])
-            entry["explored_per_m"] = round(float(per_metre.mean()), 5)
-            table.append(entry)
-    return table
+    runs = comparison.read_trials(path)
+    for run in runs:  # logs written before explore_rl.comparison ran the trials
+        run.setdefault("trial", run["seed"])
+        run.setdefault("explored_per_m", run["explored"] / max(run["travel_m"], 1e-9))
+        if run["rows"]:
+            run.setdefault("ms_decide", sum(row["ms_decide"] for row in run["rows"]) / len(run["rows"]))
+    return runs
 
 
 def ordering_checks(table: list[dict]) -> dict:
@@ -95,48 +75,28 @@ def ordering_checks(table: list[dict]) -> dict:
 
 
 def plot(runs: list[dict], out: Path) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """``ordering_{scene}.png``: map error and 3D volume against travel, side by side."""
+    from explore_rl import viz
 
     written = []
-    colours = {"nearest": "tab:blue", "em": "tab:red", "random": "tab:gray"}
     for scene in sorted({r["scene"] for r in runs}):
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-        for r in (r for r in runs if r["scene"] == scene):
-            travel = [row["travel_m"] for row in r["rows"]]
-            label = r["policy"] if r["seed"] == min(x["seed"] for x in runs) else None
-            axes[0].plot(travel, [row["map_error_m"] for row in r["rows"]], color=colours[r["policy"]],
-                         alpha=0.7, label=label)
-            axes[1].plot(travel, [row["volume_m3"] for row in r["rows"]], color=colours[r["policy"]],
-                         alpha=0.7, label=label)
-        axes[0].set(xlabel="travel distance [m]", ylabel="map error [m]", title=f"{scene}: map error")
-        axes[1].set(xlabel="travel distance [m]", ylabel="3D occupied volume [m$^3$]", title=f"{scene}: volume")
-        for ax in axes:
-            ax.legend()
-            ax.grid(alpha=0.3)
-        path = out / f"ordering_{scene}.png"
-        fig.savefig(path, dpi=110, bbox_inches="tight")
-        plt.close(fig)
-        written.append(str(path.relative_to(out.parent.parent)))
+        fig, axes = viz.plt.subplots(1, 2, figsize=(11, 4))
+        scene_runs = [r for r in runs if r["scene"] == scene]
+        for ax, (metric, ylabel, title) in zip(axes, comparison.PLOTS):
+            comparison.plot_metric(ax, scene_runs, metric, ylabel, f"{scene}: {title}")
+        path = viz.save(fig, out / f"ordering_{scene}.png")
+        written.append(str(path.relative_to(out.parent.parent)) if path.is_relative_to(out.parent.parent)
+                       else str(path))
     return written
 
 
 def write_tables(runs: list[dict], table: list[dict], out: Path) -> None:
     with open(out / "ordering_runs.csv", "w", newline="") as handle:
-        fields = [k for k in runs[0] if k != "rows"]
+        fields = list(dict.fromkeys(k for r in runs for k in r if k != "rows"))
         writer = csv.DictWriter(handle, fieldnames=fields)
         writer.writeheader()
-        writer.writerows({k: r[k] for k in fields} for r in runs)
-    lines = ["| scene | policy | runs | travel m | explored % | map error m | volume m3 | loop closures | explored %/m |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for t in table:
-        lines.append(f"| {t['scene']} | {t['policy']} | {t['runs']} | {t['travel_m']:.1f} ± {t['travel_m_std']:.1f} | "
-                     f"{100 * t['explored']:.1f} ± {100 * t['explored_std']:.1f} | "
-                     f"{t['map_error_m']:.3f} ± {t['map_error_m_std']:.3f} | {t['volume_m3']:.1f} ± {t['volume_m3_std']:.1f} | "
-                     f"{t['loop_closures']:.1f} ± {t['loop_closures_std']:.1f} | {100 * t['explored_per_m']:.2f} |")
-    (out / "ordering_table.md").write_text("\n".join(lines) + "\n")
+        writer.writerows({k: r.get(k) for k in fields} for r in runs)
+    (out / "ordering_table.md").write_text(comparison.markdown_table(table))
 
 
 def main() -> None:
@@ -155,45 +115,43 @@ def main() -> None:
     parser.add_argument("--resume", action="store_true", help="keep runs already in ordering_runs.jsonl")
     parser.add_argument("--summarise-only", action="store_true", help="no new runs: table/plots from the log")
     args = parser.parse_args()
-    scenes, seeds, extra = args.scenes, range(args.seeds), tuple(args.override)
+    scenes, seeds, extra = args.scenes, args.seeds, tuple(args.override)
     if args.quick:
-        scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=6", *args.override)
+        scenes, seeds, extra = ["street"], 1, ("explore.max_decisions=6", *args.override)
         args.out = tempfile.mkdtemp(prefix="ordering_quick_")  # never touch the committed results
     elif args.smoke:
-        scenes, seeds, extra = ["street"], range(1), ("explore.max_decisions=2", *args.override)
+        scenes, seeds, extra = ["street"], 1, ("explore.max_decisions=2", *args.override)
         args.frontend, args.workers = "model", 1
         args.out = args.out or tempfile.mkdtemp(prefix="ordering_smoke_")
     args.out = args.out or str(RESULTS)
     args.resume = args.resume or args.summarise_only
-    # seed-major order: an interrupted study still holds whole (scene, policy) sets per seed
-    jobs = [(scene, policy, seed, args.frontend, extra) for seed in seeds for scene in scenes for policy in POLICIES]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = out / "ordering_runs.jsonl"
     runs = read_runs(log) if args.resume else []
     if not args.resume:
         log.unlink(missing_ok=True)
-    done = {(r["scene"], r["policy"], r["seed"]) for r in runs}
-    jobs = [] if args.summarise_only else [j for j in jobs if j[:3] not in done]
-    with ProcessPoolExecutor(max_workers=args.workers) as pool, open(log, "a") as handle:
-        futures = [pool.submit(explore_once, *job) for job in jobs]
-        for future in as_completed(futures):
-            run = future.result()
-            runs.append(run)
+    done = {(r["scene"], r["policy"], r["trial"]) for r in runs}
+    trials = [] if args.summarise_only else make_trials(scenes, seeds, args.frontend, extra, done)
+    with open(log, "a") as handle:
+        def logged(run: dict) -> None:
             handle.write(json.dumps(run) + "\n")
             handle.flush()
+
+        runs += comparison.run_trials(trials, args.workers, progress=not args.smoke, on_result=logged,
+                                      desc="ordering runs")
     for r in runs:
-        print(f"{r['scene']:7s} {r['policy']:8s} seed {r['seed']}: {r['status']:22s} {r['travel_m']:6.1f} m "
-              f"explored {100 * r['explored']:5.1f} %  map error {r['map_error_m']:.3f} m  "
-              f"volume {r['volume_m3']:6.1f} m3  loops {r['loop_closures']}")
-    table = summarise(runs)
+        print(f"{r['scene']:7s} {r['policy']:8s} seed {r['seed']}: {r['status']:22s} {r.get('travel_m', 0):6.1f} m "
+              f"explored {100 * r.get('explored', 0):5.1f} %  map error {r.get('map_error_m', 0):.3f} m  "
+              f"volume {r.get('volume_m3', 0):6.1f} m3  loops {r.get('loop_closures', 0)}")
+    table = comparison.summarise(runs)
     checks = ordering_checks(table)
     plots = [] if args.quick else plot(runs, out)
     if not args.quick:
         write_tables(runs, table, out)
         (out / "ordering_summary.json").write_text(json.dumps({"table": table, "checks": checks}, indent=1))
     emit({"benchmark": "ordering", "quick": args.quick, "smoke": args.smoke, "frontend": args.frontend,
-          "seeds": len(seeds), "machine": machine(), "table": table, "checks": checks, "plots": plots})
+          "seeds": seeds, "machine": machine(), "table": table, "checks": checks, "plots": plots})
 
 
 if __name__ == "__main__":

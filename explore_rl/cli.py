@@ -1,4 +1,4 @@
-"""Hydra entry points: ``explore-rl-view``, ``-tour``, ``-explore``, ``-compare``, ``-train``.
+"""Hydra entry points: ``explore-rl-view``, ``-tour``, ``-explore``, ``-compare``, ``-train``, ``-eval``.
 
 The config directory is the repository's ``conf/`` (the package is installed editable by
 ``make``); ``hydra.job.chdir`` stays false so relative paths mean what the user typed.
@@ -233,3 +233,45 @@ def train(cfg: DictConfig) -> None:
     state = run.run()
     print(f"{state.updates} updates, {state.frames} decisions, {len(run.episodes.finished)} episodes, "
           f"{state.skipped_updates} skipped, {state.wall_s / 60:.1f} min; checkpoints in {run.checkpoints}")
+
+
+def check_evaluation(config: Config) -> None:
+    """Fail before any trial runs if the learned policy's actor file is unusable."""
+    if "learned" in config.evaluate.policies:
+        from explore_rl.models.actor_file import load_actor
+
+        load_actor(config.policy.checkpoint)
+
+
+@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+def evaluate(cfg: DictConfig) -> None:
+    """Compare policies on one scene over trials (explore_rl/comparison.py): every decision
+    (decisions.csv), mean and std per policy (summary.md), map error and 3D volume against
+    travel (PNG). ``explore-rl-eval scene=street policy.checkpoint=PATH out=DIR``; a sweep
+    (``-m scene=street,garage``) also writes one summary over its runs into ``out``."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    from explore_rl import comparison
+
+    config, _ = build_or_fail(cfg, check_evaluation)
+    settings = config.evaluate
+    out = training_run_dir(config)
+    trials = comparison.make_trials(config, settings.policies, settings.trials)
+    log.info("%d trials (%s x %d) on %s with slam=%s, %d workers; writing to %s", len(trials),
+             ",".join(settings.policies), settings.trials, comparison.scene_label(config), config.slam.frontend,
+             settings.workers, out)
+    runs = comparison.run_trials(trials, settings.workers, settings.threads, progress=settings.progress_bar,
+                                 desc=f"{comparison.scene_label(config)} trials")
+    report = comparison.write_report(runs, out)
+    print(report["table"].read_text(), end="")
+    failed = [r for r in runs if r["status"] == "error"]
+    for run in failed:
+        print(f"trial {run['trial']} of {run['policy']} failed: {run['error']}", file=sys.stderr)
+    print(f"wrote {report['csv']}, {report['table']}, {', '.join(str(p) for p in report['plots'])}")
+    if config.out is not None and HydraConfig.get().mode == RunMode.MULTIRUN:
+        combined = comparison.combine(Path(config.out))
+        if combined is not None:
+            print(f"wrote {combined['table']} (every run of the sweep so far)")
+    if len(failed) == len(runs):
+        sys.exit(1)

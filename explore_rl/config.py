@@ -13,6 +13,7 @@ from typing import Optional, Sequence
 
 from hydra.core.config_store import ConfigStore
 
+from explore_rl.comparison import EvaluateConfig
 from explore_rl.envs.config import EnvConfig
 from explore_rl.graph.config import GraphConfig
 from explore_rl.mapping.config import MappingConfig
@@ -66,6 +67,7 @@ class Config:
     collector: CollectorConfig = field(default_factory=CollectorConfig)
     logger: LoggerConfig = field(default_factory=LoggerConfig)
     train: TrainConfig = field(default_factory=TrainConfig)
+    evaluate: EvaluateConfig = field(default_factory=EvaluateConfig)
     # explore-rl-train: continue the run in `out` from its last checkpoint
     resume: bool = False
 
@@ -150,6 +152,7 @@ def validate(config: Config) -> None:
         raise ValueError(f"graph.max_nodes={config.graph.max_nodes} must exceed planning.actions.max_frontiers="
                          f"{config.planning.actions.max_frontiers} (the current pose and every frontier are nodes)")
     config.model.validate()
+    config.evaluate.validate()
     validate_training(config)
     if config.lidar.tile_size < 0:
         raise ValueError(f"lidar.tile_size must be >= 0 (0 = cast on the full scene model), "

@@ -1,0 +1,342 @@
+"""Policies compared over trials: explorations in parallel worker processes, every decision
+recorded, a table of means and spreads, and the paper's plots (Fig. 6: map error and 3D
+occupied volume against travel distance).
+
+Shared by ``explore-rl-eval`` (explore_rl/cli.py) and ``benchmarks/study_ordering.py``:
+
+* :class:`Trial` / :func:`trial_config`: one exploration -- a policy on a scene from the
+  scene's default start, seeded ``config.seed + trial``;
+* :func:`run_trial`: a module-level (picklable) job; a failing trial is reported, not raised;
+* :func:`run_trials`: serial (``workers=1``) or spawned worker processes, same results,
+  a progress bar over trials;
+* :func:`summarise`, :func:`markdown_table`, :func:`decision_rows`, :func:`plot_metric`,
+  :func:`write_report`: the table (mean and std per scene and policy), the CSV of every
+  decision, the plots (one line per policy: the mean over trials, a band of +-1 std).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import logging
+import multiprocessing
+import os
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Iterable, Sequence
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from explore_rl.config import Config
+
+log = logging.getLogger(__name__)
+
+POLICIES = ("learned", "em", "nearest", "random")
+COLOURS = {"learned": "tab:green", "em": "tab:red", "nearest": "tab:blue", "random": "tab:gray"}
+# final figures of a trial summarised per (scene, policy): key, column title, scale, format
+SUMMARY_COLUMNS = (
+    ("map_error_m", "map error m", 1.0, "{:.3f}"),
+    ("volume_m3", "3D volume m3", 1.0, "{:.1f}"),
+    ("travel_m", "travel m", 1.0, "{:.1f}"),
+    ("explored", "explored %", 100.0, "{:.1f}"),
+    ("explored_per_m", "explored %/m", 100.0, "{:.2f}"),
+    ("loop_closures", "loop closures", 1.0, "{:.1f}"),
+    ("ms_decide", "decision ms", 1.0, "{:.0f}"),
+    ("contacts", "contacts", 1.0, "{:.1f}"),
+    ("blocked_decisions", "blocked", 1.0, "{:.1f}"),
+    ("min_clearance_m", "min clearance m", 1.0, "{:.3f}"),
+)
+EXTRA_KEYS = ("ate_m", "decisions", "safety_interventions")
+
+
+@dataclass
+class EvaluateConfig:
+    """The ``evaluate`` config group (``explore-rl-eval``)."""
+
+    policies: list[str] = field(default_factory=lambda: list(POLICIES))
+    trials: int = 10
+    workers: int = 2  # worker processes (spawned); 1 runs the trials in this process
+    threads: int = 1  # torch / BLAS threads per worker
+    progress_bar: bool = True
+
+    def validate(self) -> None:
+        unknown = [p for p in self.policies if p not in POLICIES]
+        if unknown or not self.policies:
+            raise ValueError(f"evaluate.policies={list(self.policies)}: choose from {', '.join(POLICIES)}")
+        for key in ("trials", "workers", "threads"):
+            if getattr(self, key) < 1:
+                raise ValueError(f"evaluate.{key} must be >= 1, got {getattr(self, key)}")
+
+
+# ---------------------------------------------------------------------- trials
+
+
+@dataclass
+class Trial:
+    """One exploration to run: its full config (policy and seed set) and its labels."""
+
+    config: Config
+    trial: int
+
+    @property
+    def policy(self) -> str:
+        return self.config.policy.name
+
+    @property
+    def scene(self) -> str:
+        return self.config.scene.name
+
+
+def trial_config(config: Config, policy: str, trial: int) -> Config:
+    """``config`` with ``policy`` choosing and seed ``config.seed + trial`` (the scene's
+    default start, ``scene.start_index``, as in the paper)."""
+    return dataclasses.replace(config, seed=int(config.seed) + int(trial),
+                               policy=dataclasses.replace(config.policy, name=policy))
+
+
+def make_trials(config: Config, policies: Sequence[str], trials: int) -> list[Trial]:
+    """Trial-major order (every policy of trial 0 first), so a partial run is balanced."""
+    return [Trial(trial_config(config, policy, t), t) for t in range(trials) for policy in policies]
+
+
+def scene_label(config: Config) -> str:
+    """The scene's name (a scene file's stem for ``scene=file``)."""
+    if config.scene.name == "file" and config.scene.path:
+        return Path(config.scene.path).stem
+    return config.scene.name
+
+
+def run_trial(trial: Trial) -> dict:
+    """Explore once; the decision table and final figures. An exception is caught and
+    reported (``status: "error"``) so one bad trial does not lose a study."""
+    from explore_rl.runner import Explorer
+
+    base = {"scene": scene_label(trial.config), "policy": trial.policy, "trial": trial.trial,
+            "seed": int(trial.config.seed)}
+    try:
+        explorer = Explorer(trial.config)
+        result = explorer.run()
+    except Exception as error:  # noqa: BLE001 -- reported in the table, logged with its traceback
+        log.error("%s %s trial %d failed:\n%s", base["scene"], base["policy"], trial.trial, traceback.format_exc())
+        return {**base, "status": "error", "error": f"{type(error).__name__}: {error}", "rows": []}
+    rows = result.table()
+    last = rows[-1] if rows else {}
+    travel = float(explorer.robot.travelled)
+    finals = {key: last.get(key, 0.0) for key in ("explored", "map_error_m", "volume_m3", "loop_closures", "ate_m",
+                                                  "contacts", "blocked_decisions", "safety_interventions")}
+    finals["min_clearance_m"] = float(last.get("min_clearance_m", float("nan")))
+    return {**base, "status": result.status.value, "error": None, "decisions": len(rows), "travel_m": travel,
+            **finals, "ms_decide": float(np.mean([r["ms_decide"] for r in rows])) if rows else float("nan"),
+            "explored_per_m": finals["explored"] / max(travel, 1e-9), "rows": rows}
+
+
+def _init_worker(threads: int) -> None:
+    import torch
+
+    torch.set_num_threads(threads)
+
+
+@contextmanager
+def _thread_limits(threads: int):
+    """BLAS/OpenMP thread counts for the worker processes spawned inside (the parent's
+    libraries are already initialised; the variables only reach new processes)."""
+    names = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+    saved = {name: os.environ.get(name) for name in names}
+    for name in names:
+        os.environ.setdefault(name, str(threads))
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def run_trials(trials: Sequence[Trial], workers: int = 1, threads: int = 1, progress: bool = True,
+               on_result: Callable[[dict], None] | None = None, desc: str = "trials") -> list[dict]:
+    """Run every trial, in spawned worker processes when ``workers > 1`` (the same results
+    either way: everything in a trial is seeded). ``on_result`` sees each finished trial
+    (e.g. to log it). Results come back in the order of ``trials``."""
+    from tqdm import tqdm
+
+    results: list[dict | None] = [None] * len(trials)
+    bar = tqdm(total=len(trials), desc=desc, disable=not progress, unit="trial")
+
+    def finished(i: int, result: dict) -> None:
+        results[i] = result
+        if on_result is not None:
+            on_result(result)
+        bar.set_postfix_str(f"{result['scene']} {result['policy']} #{result['trial']}: {result['status']}")
+        bar.update(1)
+
+    try:
+        if workers <= 1 or len(trials) <= 1:
+            for i, trial in enumerate(trials):
+                finished(i, run_trial(trial))
+        else:
+            context = multiprocessing.get_context("spawn")
+            with _thread_limits(threads), ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                                              initializer=_init_worker, initargs=(threads,)) as pool:
+                futures = {pool.submit(run_trial, trial): i for i, trial in enumerate(trials)}
+                for future in as_completed(futures):
+                    finished(futures[future], future.result())
+    finally:
+        bar.close()
+    return [r for r in results if r is not None]
+
+
+# ---------------------------------------------------------------------- summaries
+
+
+def policy_order(policies: Iterable[str]) -> list[str]:
+    """Known policies in the paper's order, then any others alphabetically."""
+    policies = set(policies)
+    return [p for p in POLICIES if p in policies] + sorted(policies - set(POLICIES))
+
+
+def summarise(runs: Sequence[dict]) -> list[dict]:
+    """Mean and std (over trials) of each final figure, per scene and policy; trials that
+    raised are counted (``errors``) and left out."""
+    table = []
+    keys = [key for key, *_ in SUMMARY_COLUMNS] + list(EXTRA_KEYS)
+    for scene in sorted({r["scene"] for r in runs}):
+        for policy in policy_order(r["policy"] for r in runs if r["scene"] == scene):
+            group = [r for r in runs if r["scene"] == scene and r["policy"] == policy]
+            good = [r for r in group if r["status"] != "error"]
+            entry = {"scene": scene, "policy": policy, "trials": len(good), "errors": len(group) - len(good),
+                     "statuses": {s: sum(r["status"] == s for r in good) for s in sorted({r["status"] for r in good})}}
+            for key in keys:
+                values = np.array([r.get(key, np.nan) for r in good], dtype=float)
+                finite = values[np.isfinite(values)]
+                entry[key] = float(finite.mean()) if len(finite) else float("nan")
+                entry[key + "_std"] = float(finite.std()) if len(finite) else float("nan")
+            table.append(entry)
+    return table
+
+
+def markdown_table(table: Sequence[dict]) -> str:
+    """The summary as a Markdown table, ``mean ± std`` per column."""
+    header = ["scene", "policy", "trials"] + [title for _, title, _, _ in SUMMARY_COLUMNS]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for entry in table:
+        cells = [entry["scene"], entry["policy"], str(entry["trials"]) + (f" ({entry['errors']} failed)"
+                                                                         if entry["errors"] else "")]
+        for key, _, scale, fmt in SUMMARY_COLUMNS:
+            mean, std = scale * entry[key], scale * entry[key + "_std"]
+            cells.append("n/a" if not np.isfinite(mean) else f"{fmt.format(mean)} ± {fmt.format(std)}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def decision_rows(runs: Sequence[dict]) -> list[dict]:
+    """Every decision of every trial: scene, policy, trial, seed + the runner's DecisionRecord."""
+    return [{"scene": r["scene"], "policy": r["policy"], "trial": r["trial"], "seed": r["seed"], **row}
+            for r in runs for row in r["rows"]]
+
+
+def write_csv(path: Path, rows: Sequence[dict]) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fields = list(dict.fromkeys(key for row in rows for key in row))
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+# ---------------------------------------------------------------------- plots
+
+
+def mean_curve(runs: Sequence[dict], metric: str, points: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(travel, mean, std)`` of ``metric`` against travel over the trials: each trial's
+    decisions linearly interpolated, its final value held once it has ended (the robot
+    stopped; its map stays as it was), up to the travel where half of the trials ended."""
+    curves = [(np.array([row["travel_m"] for row in r["rows"]]), np.array([row[metric] for row in r["rows"]], float))
+              for r in runs if r["rows"]]
+    if not curves:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    end = float(np.median([travel[-1] for travel, _ in curves]))
+    grid = np.linspace(min(travel[0] for travel, _ in curves), end, points)
+    values = np.full((len(curves), points), np.nan)
+    for i, (travel, metric_values) in enumerate(curves):
+        started = grid >= travel[0]
+        values[i, started] = np.interp(grid[started], travel, metric_values)  # holds the last value
+    keep = np.isfinite(values).any(axis=0)
+    with np.errstate(invalid="ignore"):
+        return grid[keep], np.nanmean(values[:, keep], axis=0), np.nanstd(values[:, keep], axis=0)
+
+
+def plot_metric(ax, runs: Sequence[dict], metric: str, ylabel: str, title: str = "") -> None:
+    """One line per policy (the mean over trials) with a +-1 std band."""
+    for policy in policy_order(r["policy"] for r in runs):
+        group = [r for r in runs if r["policy"] == policy and r["status"] != "error"]
+        travel, mean, std = mean_curve(group, metric)
+        if not len(travel):
+            continue
+        colour = COLOURS.get(policy)
+        ax.plot(travel, mean, color=colour, label=f"{policy} ({len(group)})")
+        ax.fill_between(travel, mean - std, mean + std, color=colour, alpha=0.2, linewidth=0)
+    ax.set(xlabel="travel distance [m]", ylabel=ylabel, title=title)
+    ax.grid(alpha=0.3)
+    ax.legend()
+
+
+PLOTS = (("map_error_m", "map error [m]", "map error"), ("volume_m3", "3D occupied volume [m$^3$]", "3D volume"))
+
+
+def plot_scene(runs: Sequence[dict], scene: str, out: Path) -> list[Path]:
+    """The two paper plots of ``scene``: ``{scene}_map_error.png`` and ``{scene}_volume.png``."""
+    from explore_rl import viz
+
+    written = []
+    for metric, ylabel, title in PLOTS:
+        fig, ax = viz.plt.subplots(figsize=(6, 4))
+        plot_metric(ax, [r for r in runs if r["scene"] == scene], metric, ylabel, f"{scene}: {title}")
+        written.append(viz.save(fig, Path(out) / f"{scene}_{metric.rsplit('_', 1)[0]}.png"))
+    return [Path(p) for p in written]
+
+
+def write_summary(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Path]:
+    """``summary.md``, ``summary.json`` and the plots of every scene of ``runs`` into ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = summarise(runs)
+    (out / "summary.md").write_text(markdown_table(table))
+    (out / "summary.json").write_text(json.dumps(table, indent=1))
+    plots = [p for scene in sorted({r["scene"] for r in runs}) for p in plot_scene(runs, scene, out)]
+    return {"table": out / "summary.md", "plots": plots}
+
+
+def write_report(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Path]:
+    """:func:`write_summary` plus ``trials.jsonl`` (every trial, its decisions included)
+    and ``decisions.csv`` (every decision), into ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "trials.jsonl", "w") as handle:
+        for run in runs:
+            handle.write(json.dumps(run) + "\n")
+    return {**write_summary(runs, out), "csv": write_csv(out / "decisions.csv", decision_rows(runs)),
+            "trials": out / "trials.jsonl"}
+
+
+def combine(parent: Path) -> dict[str, list[Path] | Path] | None:
+    """One summary over every report in ``parent``'s subfolders (a sweep, e.g.
+    ``explore-rl-eval -m scene=street,garage out=DIR``), written into ``parent``."""
+    runs = [run for path in sorted(Path(parent).glob("*/trials.jsonl")) for run in read_trials(path)]
+    return write_summary(runs, parent) if runs else None
+
+
+def read_trials(path: Path) -> list[dict]:
+    """Trials written by :func:`write_report` (or logged one JSON object a line)."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]

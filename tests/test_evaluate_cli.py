@@ -1,0 +1,100 @@
+"""explore-rl-eval end to end on a tiny budget, in a subprocess as a user runs it."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from explore_rl import comparison
+from explore_rl.config import load_config
+from tests.policy_files import actor_file
+
+EVAL = "import sys; from explore_rl.cli import evaluate; sys.argv[0] = 'explore-rl-eval'; evaluate()"
+TINY = ["scene=street", "slam=model", "explore.max_decisions=2", "evaluate.trials=2", "evaluate.progress_bar=false",
+        "planning.actions.max_frontiers=3"]
+COLUMNS = ["policy", "trial", "travel_m", "map_error_m", "explored", "volume_m3", "ms_decide", "loop_closures",
+           "contacts", "blocked_decisions", "min_clearance_m", "path_status"]
+
+
+def run_eval(*overrides: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    return subprocess.run([sys.executable, "-c", EVAL, *overrides], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_eval_writes_every_decision_a_table_and_the_plots(tmp_path):
+    path, _ = actor_file(tmp_path / "policy", load_config(["model.hidden=16", "model.mlp_hidden=16"]))
+    out = tmp_path / "eval"
+    proc = run_eval(*TINY, "evaluate.policies=[learned,nearest]", "evaluate.workers=2", f"policy.checkpoint={path}",
+                    f"out={out}", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    with open(out / "decisions.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert not [c for c in COLUMNS if c not in rows[0]]
+    assert len(rows) == 2 * 2 * 2  # policies x trials x decisions
+    assert {(r["policy"], r["trial"]) for r in rows} == {(p, t) for p in ("learned", "nearest") for t in ("0", "1")}
+    table = (out / "summary.md").read_text()
+    assert "| street | learned | 2 |" in table and "| street | nearest | 2 |" in table
+    assert "map error m" in table and "decision ms" in table and "contacts" in table
+    assert table in proc.stdout  # printed too
+    for name in ("street_map_error.png", "street_volume.png"):
+        assert (out / name).stat().st_size > 1000
+
+    # the worker processes ran what one process runs: trial 1 of nearest, again, here
+    logged = {(r["policy"], r["trial"]): r for r in comparison.read_trials(out / "trials.jsonl")}
+    config = load_config([*TINY, "policy=nearest"])
+    again = comparison.run_trial(comparison.Trial(comparison.trial_config(config, "nearest", 1), 1))
+    timing = ("ms_decide", "ms_drive", "ms_safety")
+    strip = [{k: v for k, v in row.items() if k not in timing} for row in again["rows"]]
+    assert strip == [{k: v for k, v in row.items() if k not in timing} for row in logged[("nearest", 1)]["rows"]]
+
+
+def test_eval_with_a_missing_actor_file_fails_at_once_with_one_line(tmp_path):
+    missing = tmp_path / "no" / "actor.pt"
+    proc = run_eval(*TINY, f"policy.checkpoint={missing}", f"out={tmp_path / 'eval'}", cwd=tmp_path)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and f"{missing}: no checkpoint there" in lines[0]
+    assert not (tmp_path / "eval").exists()
+
+
+def test_eval_rejects_an_unknown_policy(tmp_path):
+    proc = run_eval(*TINY, "evaluate.policies=[nearest,greedy]", cwd=tmp_path)
+    assert proc.returncode == 2 and "evaluate.policies" in proc.stderr
+
+
+def synthetic_run(policy: str, trial: int, errors: list[float], status: str = "explored") -> dict:
+    rows = [{"travel_m": 2.0 * (k + 1), "map_error_m": e, "volume_m3": 3.0 * k, "ms_decide": 10.0}
+            for k, e in enumerate(errors)]
+    return {"scene": "street", "policy": policy, "trial": trial, "seed": trial, "status": status, "error": None,
+            "rows": rows, "travel_m": rows[-1]["travel_m"] if rows else 0.0, "map_error_m": errors[-1] if errors else 0,
+            "volume_m3": 1.0, "explored": 0.8, "explored_per_m": 0.1, "loop_closures": 2, "ms_decide": 10.0,
+            "contacts": 0, "blocked_decisions": 1, "min_clearance_m": 0.1, "ate_m": 0.0, "decisions": len(rows),
+            "safety_interventions": 0}
+
+
+def test_summary_means_stds_and_failed_trials():
+    runs = [synthetic_run("nearest", 0, [0.1, 0.2]), synthetic_run("nearest", 1, [0.1, 0.4]),
+            synthetic_run("em", 0, [0.1]), {**synthetic_run("em", 1, []), "status": "error", "error": "boom"}]
+    table = comparison.summarise(runs)
+    assert [t["policy"] for t in table] == ["em", "nearest"]  # the paper's order
+    nearest = table[1]
+    assert nearest["map_error_m"] == pytest.approx(0.3) and nearest["map_error_m_std"] == pytest.approx(0.1)
+    assert table[0]["trials"] == 1 and table[0]["errors"] == 1
+    text = comparison.markdown_table(table)
+    assert "| street | em | 1 (1 failed) |" in text and "0.300 ± 0.100" in text
+    json.dumps(table)
+
+
+def test_mean_curve_holds_each_trials_last_value_up_to_the_median_end():
+    runs = [synthetic_run("nearest", 0, [0.0, 1.0]), synthetic_run("nearest", 1, [0.0, 1.0, 1.0, 3.0]),
+            synthetic_run("nearest", 2, [0.0, 1.0, 2.0])]
+    travel, mean, std = comparison.mean_curve(runs, "map_error_m", points=5)
+    assert travel[0] == 2.0 and travel[-1] == 6.0  # median of the ends 4, 8, 6
+    assert mean[-1] == pytest.approx((1.0 + 1.0 + 2.0) / 3)  # trial 0 holds its last value
