@@ -2,21 +2,26 @@
 
 Runs every (scene, policy, seed) exploration twice in one study, with the local safety
 layer (``robot.safety``, explore_rl/local_planner.py) on and off, with ``slam=model``,
-plus one ``slam=icp`` pair (office, nearest, seed 0). Per run: decisions, blocked
-decisions (path ended ``blocked``), contacts (motion steps whose true footprint would have
-entered an obstacle), the least true footprint clearance, explored fraction, travel, map
-error, and the time per decision (decide + drive) and in the layer. The last stdout line
-is JSON with the table and the issue-15 targets, checked on the ``slam=model`` runs:
+plus ``slam=icp`` pairs (office, nearest; seed 0, ``--icp-seeds`` for more). Per run:
+decisions, blocked decisions (path ended ``blocked``), contacts (motion steps whose true
+footprint would have entered an obstacle), the least true footprint clearance, explored
+fraction, travel, map error, and the time per decision (decide + drive) and in the layer.
+The last stdout line is JSON with the table and the issue-15 targets, checked on the
+``slam=model`` runs:
 
 * blocked decisions under 2 % and contacts near zero (at most one per four runs) with it on;
-* explored % not lower (within half a point), travel at most 10 % longer, map error not
-  worse (mean over all runs) than with it off.
+* explored % not lower: as many runs reach the 85 % target, and the mean final explored
+  fraction within one point (runs stop at the first decision past 85 %, so the final
+  figure is mostly that decision's overshoot); travel at most 10 % longer; map error not
+  worse (means over all runs) than with it off.
 
     python benchmarks/study_safety.py [--quick | --smoke] [--seeds 4] [--workers 1]
-        [--scenes office street garage] [--policies nearest em] [--no-icp] [--resume] [--out DIR]
+        [--scenes office street garage] [--policies nearest em] [--no-icp] [--icp-seeds 1]
+        [--resume] [--summarise-only] [--out DIR]
 
 Every finished run is appended to ``DIR/safety_runs.jsonl`` (default
-``benchmarks/results/safety``) as it completes; ``--resume`` skips runs already there.
+``benchmarks/results/safety``) as it completes; ``--resume`` skips runs already there and
+``--summarise-only`` rebuilds the table from that log.
 """
 
 from __future__ import annotations
@@ -73,7 +78,8 @@ def summarise(runs: list[dict]) -> list[dict]:
     """Means per (frontend, scene, policy, variant)."""
     table = []
     groups = sorted({(r["frontend"], r["scene"], r["policy"]) for r in runs},
-                    key=lambda g: (g[0] != "model", SCENES.index(g[1]) if g[1] in SCENES else 99, g[2]))
+                    key=lambda g: (g[0] != "model", SCENES.index(g[1]) if g[1] in SCENES else 99,
+                                   POLICIES.index(g[2]) if g[2] in POLICIES else 99, g[2]))
     for frontend, scene, policy in groups:
         for variant in VARIANTS:
             group = [r for r in runs if (r["frontend"], r["scene"], r["policy"], r["variant"])
@@ -101,6 +107,7 @@ def overall(runs: list[dict]) -> dict:
             "blocked_fraction": round(sum(r["blocked"] for r in group) / max(decisions, 1), 4),
             "contacts": sum(r["contacts"] for r in group),
             "contacts_per_run": round(sum(r["contacts"] for r in group) / len(group), 3),
+            "reached_target": sum(r["status"] == "explored" for r in group),
             "min_clearance_m": round(float(min(r["min_clearance_m"] for r in group)), 4),
             **{key: mean(group, key) for key in ("explored", "travel_m", "map_error_m", "ms_per_decision",
                                                  "ms_drive", "ms_safety")},
@@ -116,7 +123,8 @@ def targets(summary: dict) -> dict:
     return {
         "blocked_under_2_percent": on["blocked_fraction"] < 0.02,
         "contacts_near_zero": on["contacts_per_run"] <= 0.25,
-        "explored_not_lower": on["explored"] >= off["explored"] - 0.005,
+        "explored_not_lower": (on["reached_target"] >= off["reached_target"]
+                               and on["explored"] >= off["explored"] - 0.01),
         "travel_at_most_10_percent_longer": on["travel_m"] <= 1.10 * off["travel_m"],
         "map_error_not_worse": on["map_error_m"] <= off["map_error_m"],
     }
@@ -140,9 +148,11 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--scenes", nargs="+", default=SCENES)
     parser.add_argument("--policies", nargs="+", default=POLICIES)
-    parser.add_argument("--no-icp", action="store_true", help="skip the slam=icp pair")
+    parser.add_argument("--no-icp", action="store_true", help="skip the slam=icp pairs")
+    parser.add_argument("--icp-seeds", type=int, default=1, help="seeds of the slam=icp pair (office, nearest)")
     parser.add_argument("--override", nargs="*", default=[], help="Hydra overrides for every run")
     parser.add_argument("--resume", action="store_true", help="skip runs already in the run log")
+    parser.add_argument("--summarise-only", action="store_true", help="only rebuild the table from the run log")
     parser.add_argument("--out", type=Path, default=RESULTS / "safety")
     args = parser.parse_args()
     if args.seeds < 1 or args.workers < 1:
@@ -155,11 +165,15 @@ def main() -> None:
     jobs = [(scene, policy, seed, variant, "model", extra) for scene in scenes for policy in policies
             for seed in range(seeds) for variant in VARIANTS]
     if icp:
-        jobs += [("office", "nearest", 0, variant, "icp", extra) for variant in VARIANTS]
+        jobs += [("office", "nearest", seed, variant, "icp", extra) for seed in range(args.icp_seeds)
+                 for variant in VARIANTS]
     args.out.mkdir(parents=True, exist_ok=True)
     log_path = args.out / "safety_runs.jsonl"
-    done = [r for r in read_runs(log_path) if args.resume]
-    if not args.resume:
+    done = [r for r in read_runs(log_path) if args.resume or args.summarise_only]
+    if args.summarise_only:
+        jobs = [job for job in jobs if key(job) in {(r["scene"], r["policy"], r["seed"], r["variant"],
+                                                     r["frontend"]) for r in done}]
+    elif not args.resume:
         log_path.write_text("")
     seen = {(r["scene"], r["policy"], r["seed"], r["variant"], r["frontend"]) for r in done}
     todo = [job for job in jobs if key(job) not in seen]
