@@ -1,4 +1,4 @@
-"""Decision time of the EM planner against nearest frontier, as the graph and the candidates grow.
+"""Decision time of the EM planner, the learned policy and nearest frontier, as the graph and the candidates grow.
 
 Synthetic but realistic states: a real iSAM2 ``PoseGraph`` of N keyframes every 0.5 m
 along a lawnmower trajectory (rows 3 m apart, then back along the edges) in a 20 m x 20 m
@@ -7,9 +7,13 @@ back near an older keyframe; a real ``OccupancyGrid`` (known free within the LiD
 floor ring of the trajectory, unknown stripes between rows); candidates = frontier cells
 spread by farthest-point sampling, each with its Dijkstra path from the robot over the
 known-free space. Paths running along older rows predict loop closures (graph-copy
-path), short ones into new space do not (the covariance-propagation shortcut). Both
+path), short ones into new space do not (the covariance-propagation shortcut). All
 policies see the same state; nearest frontier's time is its ``choose`` alone (the
-state's Dijkstra is shared by every policy).
+state's Dijkstra is shared by every policy). The learned policy's time is its ``choose``:
+action set (the same as EM's), exploration graph, encoding and forward pass, with the
+shipped actor if ``policies/office_a2c/actor.pt`` exists, else a randomly initialised
+actor of the default model size (the output says which); the forward pass of a
+hidden-1000 actor is timed as well. One torch thread.
 
     python benchmarks/bench_decision.py [--quick | --smoke]
 """
@@ -27,14 +31,22 @@ from scipy.spatial import cKDTree
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine, parse_args, time_call  # noqa: E402
 
+import torch  # noqa: E402
+
 from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix  # noqa: E402
+from explore_rl.graph.config import GraphConfig  # noqa: E402
+from explore_rl.graph.encode import encode  # noqa: E402
 from explore_rl.grid import GridSpec  # noqa: E402
 from explore_rl.mapping.config import MappingConfig  # noqa: E402
 from explore_rl.mapping.frontiers import Frontier, frontier_mask  # noqa: E402
 from explore_rl.mapping.occupancy import OccupancyGrid  # noqa: E402
 from explore_rl.mapping.paths import DistanceField, PathPlanner, path_length, traversability  # noqa: E402
 from explore_rl.planning.config import ActionSetConfig, PlanningConfig  # noqa: E402
+from explore_rl.models.actor_critic import GraphActor  # noqa: E402
+from explore_rl.models.actor_file import DEFAULT_ACTOR, load_actor, resolve  # noqa: E402
+from explore_rl.models.config import ModelConfig  # noqa: E402
 from explore_rl.planning.em import EMPlanner  # noqa: E402
+from explore_rl.planning.learned import LearnedPolicy, greedy_row  # noqa: E402
 from explore_rl.planning.policies import NearestFrontier, PolicyConfig  # noqa: E402
 from explore_rl.planning.revisits import sample_path  # noqa: E402
 from explore_rl.robot import RobotConfig  # noqa: E402
@@ -42,6 +54,23 @@ from explore_rl.state import Candidate, ExplorationState  # noqa: E402
 from explore_rl.slam.config import SlamConfig  # noqa: E402
 from explore_rl.slam.frontend import ScanMatch  # noqa: E402
 from explore_rl.slam.pose_graph import PoseGraph  # noqa: E402
+
+
+MAX_TOURS = 3
+# the learned policy's graph keeps every pose (a garage evaluation reaches ~800 keyframes)
+LEARNED_GRAPH = GraphConfig(max_nodes=1024)
+PAPER_MODEL = ModelConfig(hidden=1000, mlp_hidden=0)  # model=gunet_paper
+
+
+def learned_actor() -> tuple[GraphActor, str]:
+    """The shipped policy if it exists, else a randomly initialised actor of the default
+    model size (``model=gunet``): the decision time does not depend on the weights."""
+    if resolve(None).is_file():
+        actor, _ = load_actor(None)
+        return actor, f"trained: {DEFAULT_ACTOR}"
+    torch.manual_seed(0)
+    config = ModelConfig()
+    return GraphActor(config, 4).eval(), f"random init, default model size (hidden {config.hidden}): no {DEFAULT_ACTOR}"
 
 
 @dataclass
@@ -69,7 +98,8 @@ class BenchSetup:
 
 def lawnmower(n_poses: int, setup: BenchSetup, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """``n_poses`` poses every ``spacing`` along boustrophedon rows, then back along the
-    area's edges (crossing the rows' ends, re-driving the first row), and their travel."""
+    area's edges (crossing the rows' ends, re-driving the first row), and their travel;
+    the same tour again if that is not enough (a tour holds ~790 poses)."""
     lo, hi = setup.margin, setup.area - setup.margin
     corners, y, east = [], lo, True
     while y <= hi + 1e-9:
@@ -77,8 +107,14 @@ def lawnmower(n_poses: int, setup: BenchSetup, spacing: float) -> tuple[np.ndarr
         y, east = y + setup.row_spacing, not east
     x_end = corners[-1][0]
     corners += [[x_end, lo], [lo + hi - x_end, lo], [lo + hi - x_end, hi]]
-    corners += corners[::-1]  # then the whole tour backwards
+    tour = corners + corners[::-1]  # then the whole tour backwards, back to the start
+    corners = list(tour)
     poses, travel = sample_path(np.array(corners), spacing, include_start=True)
+    for _ in range(MAX_TOURS - 1):  # long runs (800 poses) drive the tour again
+        if len(poses) >= n_poses:
+            break
+        corners += tour[1:]
+        poses, travel = sample_path(np.array(corners), spacing, include_start=True)
     if len(poses) < n_poses:
         raise ValueError(f"the trajectory holds only {len(poses)} poses, asked for {n_poses}")
     poses[0, 2] = poses[1, 2]
@@ -169,21 +205,35 @@ def make_state(n_poses: int, n_candidates: int, setup: BenchSetup) -> Exploratio
     return ExplorationState(session, estimates[-1], float(travel[-1]), cands, nearest, field, None)
 
 
-def measure(n_poses: int, n_candidates: int, setup: BenchSetup) -> dict:
-    """Milliseconds per decision of EM and nearest frontier on one state."""
+def measure(n_poses: int, n_candidates: int, setup: BenchSetup, actor: GraphActor,
+            paper_actor: GraphActor) -> dict:
+    """Milliseconds per decision of EM, the learned policy and nearest frontier on one state.
+
+    The learned policy's time is its whole ``choose``: the action set (the same as EM's),
+    the exploration graph (all pose marginals + the frontiers' landmarks), the encoding and
+    the actor's forward pass; ``ms_learned_forward_paper`` is the forward pass alone of a
+    hidden-1000 actor (the paper's size) on the same encoded graph."""
     state = make_state(n_poses, n_candidates, setup)
     # the n_candidates nearest frontiers: EM's cost per candidate, whatever the action set
     planning = PlanningConfig(actions=ActionSetConfig(kind="nearest", max_frontiers=n_candidates))
     em = EMPlanner(PolicyConfig(name="em"), planning)
     nearest = NearestFrontier()
+    learned = LearnedPolicy(PolicyConfig(name="learned"), planning, graph=LEARNED_GRAPH, actor=actor)
 
     ms_em = 1e3 * time_call(lambda: em.choose(state), setup.repeats)
     ms_nearest = 1e3 * time_call(lambda: nearest.choose(state), 1000)
+    ms_learned = 1e3 * time_call(lambda: learned.choose(state), max(setup.repeats, 3))
+    parts = dict(learned.last_ms)
+    encoded = encode(learned.last_graph, LEARNED_GRAPH.max_nodes)
+    ms_paper = 1e3 * time_call(lambda: greedy_row(paper_actor, encoded), max(setup.repeats, 3))
     evaluation = em.last_evaluation
     return {"poses": n_poses, "candidates": len(state.candidates), "ms_em": ms_em,
             "path_m": float(np.mean(evaluation.lengths)),
             "ms_nearest": ms_nearest, "loops": int(np.count_nonzero(evaluation.loops)),
-            "em_choice_is_nearest": bool(evaluation.chosen == state.nearest)}
+            "em_choice_is_nearest": bool(evaluation.chosen == state.nearest),
+            "ms_learned": ms_learned, "ms_learned_actions": parts["actions"], "ms_learned_graph": parts["graph"],
+            "ms_learned_forward": parts["forward"], "ms_learned_forward_paper": ms_paper,
+            "graph_nodes": learned.last_graph.num_nodes}
 
 
 def growth(rows: list[dict]) -> dict:
@@ -200,33 +250,45 @@ def growth(rows: list[dict]) -> dict:
             "c_ms_per_pose_candidate": round(float(c), 4),
             "em_over_nearest_at_largest": round(largest["ms_em"] / largest["ms_nearest"]),
             "em_largest_over_smallest": round(largest["ms_em"] / smallest["ms_em"], 1),
-            "em_ms_per_candidate_at_largest": round(largest["ms_em"] / largest["candidates"], 1)}
+            "em_ms_per_candidate_at_largest": round(largest["ms_em"] / largest["candidates"], 1),
+            "learned_largest_over_smallest": round(largest["ms_learned"] / smallest["ms_learned"], 1),
+            "em_over_learned_at_largest": round(largest["ms_em"] / largest["ms_learned"], 1)}
 
 
 def print_table(rows: list[dict]) -> None:
     print(f"{'poses':>6} {'cands':>6} {'path m':>7} {'loops':>6} {'ms EM':>9} {'ms/cand':>8} "
-          f"{'ms nearest':>11} {'EM=nearest':>11}")
+          f"{'ms nearest':>11} {'EM=nearest':>11} {'ms learned':>11} {'(actions':>9} {'graph':>7} "
+          f"{'forward)':>9} {'fwd h1000':>10}")
     for r in rows:
         print(f"{r['poses']:>6} {r['candidates']:>6} {r['path_m']:>7.1f} {r['loops']:>6} {r['ms_em']:>9.1f} "
               f"{r['ms_em'] / r['candidates']:>8.1f} {r['ms_nearest']:>11.4f} "
-              f"{str(r['em_choice_is_nearest']):>11}")
+              f"{str(r['em_choice_is_nearest']):>11} {r['ms_learned']:>11.1f} {r['ms_learned_actions']:>9.1f} "
+              f"{r['ms_learned_graph']:>7.1f} {r['ms_learned_forward']:>9.1f} {r['ms_learned_forward_paper']:>10.1f}")
 
 
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
+    torch.set_num_threads(1)  # one core, as EM (numpy) and bench_policy's decision latency
     setup = BenchSetup()
-    pose_counts = [50, 100] if args.quick else [50, 100, 200, 400]
+    pose_counts = [50, 100] if args.quick else [50, 100, 200, 400, 800]
     candidate_counts = [2, 5, 10]
     if args.smoke:  # four small states: enough for the growth fit, no figure to quote
         setup, pose_counts, candidate_counts = BenchSetup(repeats=1), [30, 50], [2, 5]
-    rows = [measure(n, c, setup) for n in pose_counts for c in candidate_counts]
+    actor, actor_source = learned_actor()
+    torch.manual_seed(1)
+    paper_actor = GraphActor(PAPER_MODEL, 4).eval()
+    print(f"learned policy: {actor_source}; forward pass also timed at hidden 1000 (random init)")
+    rows = [measure(n, c, setup, actor, paper_actor) for n in pose_counts for c in candidate_counts]
     print_table(rows)
     summary = growth(rows)
     print("growth:", summary)
+    rounded = {key: [round(r[key], 2) for r in rows] for key in
+               ("ms_learned", "ms_learned_actions", "ms_learned_graph", "ms_learned_forward", "ms_learned_forward_paper")}
     emit({"benchmark": "decision", "quick": args.quick, "smoke": args.smoke,
           "poses": [r["poses"] for r in rows], "candidates": [r["candidates"] for r in rows],
           "ms_em": [round(r["ms_em"], 2) for r in rows],
           "ms_nearest": [round(r["ms_nearest"], 5) for r in rows],
+          **rounded, "graph_nodes": [r["graph_nodes"] for r in rows], "learned_actor": actor_source,
           "loop_candidates": [r["loops"] for r in rows],
           "growth": summary, "machine": machine()})
 
