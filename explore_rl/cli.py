@@ -235,6 +235,22 @@ def train(cfg: DictConfig) -> None:
           f"{state.skipped_updates} skipped, {state.wall_s / 60:.1f} min; checkpoints in {run.checkpoints}")
 
 
+def evaluation_dir(config: Config) -> Path:
+    """``out``; under a sweep (``-m``) ``out/<job number>_<scene>`` (each holds its
+    config.yaml); without ``out``, Hydra's own output folder."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    from explore_rl.comparison import scene_label
+
+    hydra_config = HydraConfig.get()
+    if config.out is None:
+        return Path(hydra_config.runtime.output_dir)
+    if hydra_config.mode == RunMode.MULTIRUN:
+        return Path(config.out) / f"{hydra_config.job.num}_{scene_label(config)}"
+    return Path(config.out)
+
+
 def check_evaluation(config: Config) -> None:
     """Fail before any trial runs if the learned policy's actor file is unusable."""
     if "learned" in config.evaluate.policies:
@@ -256,7 +272,9 @@ def evaluate(cfg: DictConfig) -> None:
 
     config, _ = build_or_fail(cfg, check_evaluation)
     settings = config.evaluate
-    out = training_run_dir(config)
+    out = evaluation_dir(config)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.yaml").write_text(OmegaConf.to_yaml(cfg))
     trials = comparison.make_trials(config, settings.policies, settings.trials)
     log.info("%d trials (%s x %d) on %s with slam=%s, %d workers; writing to %s", len(trials),
              ",".join(settings.policies), settings.trials, comparison.scene_label(config), config.slam.frontend,

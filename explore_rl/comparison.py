@@ -328,10 +328,15 @@ def write_report(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Path
 
 
 def combine(parent: Path) -> dict[str, list[Path] | Path] | None:
-    """One summary over every report in ``parent``'s subfolders (a sweep, e.g.
-    ``explore-rl-eval -m scene=street,garage out=DIR``), written into ``parent``."""
-    runs = [run for path in sorted(Path(parent).glob("*/trials.jsonl")) for run in read_trials(path)]
-    return write_summary(runs, parent) if runs else None
+    """One summary over every report in ``parent``'s subfolders (a sweep over scenes, e.g.
+    ``explore-rl-eval -m scene=street,garage out=DIR``), written into ``parent``. None
+    (nothing written) if two folders hold the same scene: a sweep over something else,
+    whose runs one table by scene and policy would mix."""
+    reports = [read_trials(path) for path in sorted(Path(parent).glob("*/trials.jsonl"))]
+    scenes = [sorted({run["scene"] for run in runs}) for runs in reports]
+    if not reports or len({s for group in scenes for s in group}) < sum(len(group) for group in scenes):
+        return None
+    return write_summary([run for runs in reports for run in runs], parent)
 
 
 def read_trials(path: Path) -> list[dict]:
