@@ -144,12 +144,12 @@ def make_collector(config: Config, actor, replays: list | None = None):
     workers, steps = config.collector.workers, config.algo.steps_per_update
     replays = replays or [None] * workers
     factories = [EnvFactory(config, worker=i, replay=replays[i]) for i in range(workers)]
-    common = dict(frames_per_batch=workers * steps, total_frames=-1, auto_register_policy_transforms=False,
-                  exploration_type=ExplorationType.RANDOM)
+    common = dict(frames_per_batch=workers * steps, total_frames=-1, exploration_type=ExplorationType.RANDOM)
     if config.collector.backend == "ray":
         ray_init = {"address": config.collector.ray_address} if config.collector.ray_address else {}
         return Collector(factories, actor, backend="ray", num_collectors=workers, sync=True,
                          backend_options={"ray_init_config": ray_init}, **common)
+    common["auto_register_policy_transforms"] = False  # our env needs no policy transforms
     if workers == 1:
         return Collector(factories[0], actor, **common)
     return MultiSyncCollector(factories, actor, cat_results="stack", **common)
@@ -222,6 +222,7 @@ class TrainingRun:
             log.info("nothing to do: %d of %d decisions already", self.state.frames, self.config.train.frames)
             return self.state
         collector = make_collector(self.config, self.learner.actor, self.episodes.replays())
+        collector.update_policy_weights_()  # remote (Ray) collectors wait for a first sync
         if self.torch_rng is not None:
             torch.set_rng_state(self.torch_rng)  # after building the collector, before acting
         start, restarts = time.perf_counter() - self.state.wall_s, 0
@@ -238,6 +239,7 @@ class TrainingRun:
                     self.failed_collections += 1
                     collector.shutdown()
                     collector = make_collector(self.config, self.learner.actor, self.episodes.abandon_running())
+                    collector.update_policy_weights_()
             self.save("last")
         finally:
             collector.shutdown()

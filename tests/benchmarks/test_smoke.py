@@ -15,6 +15,7 @@ from tests.benchmarks.smoke import run_script
 
 # script, extra arguments ({tmp} = the test's tmp dir), keys the JSON last line must hold
 SCRIPTS = [
+    ("benchmarks/bench_collect.py", [], ["dps_1", "dps_2", "scaling", "one_worker", "two_workers"]),
     ("benchmarks/bench_decision.py", [], ["ms_em", "ms_nearest", "poses", "candidates", "growth", "ms_learned",
                                           "ms_learned_graph", "ms_learned_forward", "learned_actor"]),
     ("benchmarks/bench_env.py", [], ["decisions_per_s", "ms_graph", "ms_reward", "ms_drive", "max_nodes_seen",
