@@ -10,10 +10,11 @@ import torch
 from torch_geometric.nn import GraphUNet
 
 from explore_rl.models.graph_unet import (
+    INPUT_LEVELS,
     DenseGraphUNet,
     DenseTopKPool,
-    augmented_adjacency,
-    gcn_normalize,
+    augmented_edges,
+    input_level,
     state_dict_from_pyg,
     used_node_slots,
 )
@@ -175,44 +176,101 @@ def test_topk_keeps_ceil_ratio_of_real_nodes_with_the_best_scores():
     torch.manual_seed(0)
     pool = DenseTopKPool(HIDDEN, ratio=0.5)
     sizes = torch.tensor([7, 1, 4])
-    mask = torch.arange(8) < sizes.unsqueeze(-1)
-    x = torch.randn(3, 8, HIDDEN) * mask.unsqueeze(-1)
-    adj = torch.zeros(3, 8, 8)
-    pooled = pool(x, adj, mask)
-    assert pooled.mask.sum(-1).tolist() == [math.ceil(0.5 * n) for n in sizes.tolist()]
+    graph = torch.repeat_interleave(torch.arange(3), sizes)
+    slot = torch.cat([torch.arange(n) for n in sizes.tolist()])
+    x = torch.randn(int(sizes.sum()), HIDDEN)
+    pooled = pool(x, graph, slot, 8, sizes)
+    assert torch.bincount(pooled.graph, minlength=3).tolist() == [math.ceil(0.5 * n) for n in sizes.tolist()]
+    assert pooled.sizes.tolist() == [math.ceil(0.5 * n) for n in sizes.tolist()] and pooled.width == 4
     score = (x @ pool.weight.t()).squeeze(-1) / pool.weight.norm()
-    for b, n in enumerate(sizes.tolist()):
-        kept = pooled.index[b][pooled.mask[b]]
-        assert torch.all(kept < n)  # never a padded node
-        best = score[b, :n].topk(len(kept)).indices
-        assert set(kept.tolist()) == set(best.tolist())
-        gate = torch.tanh(score[b, kept]).unsqueeze(-1)
-        torch.testing.assert_close(pooled.x[b][pooled.mask[b]], x[b, kept] * gate)
-    assert torch.all(pooled.x[~pooled.mask] == 0)
+    for b in range(3):
+        kept = pooled.kept[pooled.graph == b]
+        assert torch.all(graph[kept] == b)  # never another graph's node
+        best = score.masked_fill(graph != b, -math.inf).topk(len(kept)).indices
+        assert kept.tolist() == sorted(best.tolist())  # the best, in their order
+        assert pooled.slot[pooled.graph == b].tolist() == list(range(len(kept)))
+        gate = torch.tanh(score[kept]).unsqueeze(-1)
+        torch.testing.assert_close(pooled.x[pooled.graph == b], x[kept] * gate)
 
 
-def test_augmented_adjacency_is_the_square_of_a_plus_i_on_kept_nodes():
+def dense_adjacency(edges, n: int) -> torch.Tensor:
+    out = torch.zeros(n, n)
+    out[edges.row, edges.col] = edges.weight
+    return out
+
+
+def test_augmented_edges_are_the_square_of_a_plus_i_on_kept_nodes():
     graph = random_graphs([9], seed=8)[0]
-    adj = graph.adj.unsqueeze(0)
-    mask = torch.ones(1, 9, dtype=torch.bool)
-    index = torch.tensor([[4, 0, 7, 2]])
-    kept = torch.tensor([[True, True, True, False]])
+    level = input_level(graph.adj.unsqueeze(0), torch.ones(1, 9, dtype=torch.bool), "distance", 0.1)
+    kept = torch.tensor([4, 0, 7])
     squared = (graph.adj + torch.eye(9)) @ (graph.adj + torch.eye(9))
-    expected = squared[[4, 0, 7]][:, [4, 0, 7]].clone()
+    expected = squared[kept][:, kept].clone()
     expected.fill_diagonal_(0)
-    got = augmented_adjacency(adj, mask, index, kept)[0]
-    torch.testing.assert_close(got[:3, :3], expected)
-    assert torch.all(got[3] == 0) and torch.all(got[:, 3] == 0)
+    torch.testing.assert_close(dense_adjacency(augmented_edges(level, kept), 3), expected)
 
 
-def test_gcn_normalize_uses_improved_self_loops_and_leaves_padding_zero():
-    adj = torch.tensor([[[0.0, 0.5, 0.0], [0.5, 0.0, 0.0], [0.0, 0.0, 0.0]]])
+def test_gcn_operator_uses_improved_self_loops_and_packs_out_padding():
+    adj = torch.tensor([[[0.0, 0.5, 7.0], [0.5, 0.0, 7.0], [7.0, 7.0, 0.0]]])
     mask = torch.tensor([[True, True, False]])
-    norm = gcn_normalize(adj, mask)
+    level = input_level(adj, mask, "distance", 0.1)
     degree = torch.tensor([2.5, 2.5])
     expected = torch.tensor([[2.0, 0.5], [0.5, 2.0]]) / degree.sqrt().outer(degree.sqrt())
-    torch.testing.assert_close(norm[0, :2, :2], expected)
-    assert torch.all(norm[0, 2] == 0) and torch.all(norm[0, :, 2] == 0)
+    torch.testing.assert_close(level.propagate.matrix.to_dense(), expected)
+
+
+def test_an_asymmetric_adjacency_gets_the_transpose_in_backward():
+    generator = torch.Generator().manual_seed(12)
+    adj = torch.rand(1, 6, 6, generator=generator) * (torch.rand(1, 6, 6, generator=generator) < 0.4)
+    level = input_level(adj, torch.ones(1, 6, dtype=torch.bool), "distance", 0.1)
+    assert level.reverse is not None
+    matrix = level.propagate.matrix.to_dense()
+    x = torch.randn(6, 3, generator=generator, requires_grad=True)
+    level.propagate(x).sin().sum().backward()
+    reference = x.detach().clone().requires_grad_()
+    (matrix @ reference).sin().sum().backward()
+    torch.testing.assert_close(x.grad, reference.grad)
+
+
+def test_the_input_cache_serves_equal_inputs_and_never_a_changed_graph():
+    _, dense = pyg_and_dense()
+    batch = pad(random_graphs([20, 9], seed=14))
+    x, adj, mask = batch["x"], batch["adj"], batch["node_mask"]
+
+    def fresh() -> torch.Tensor:
+        INPUT_LEVELS.entry = None
+        return dense(x, adj, mask)
+
+    with torch.no_grad():
+        first = fresh()
+        level = INPUT_LEVELS.entry.level
+        torch.testing.assert_close(dense(x, adj.clone(), mask.clone()), first, atol=0, rtol=0)
+        assert INPUT_LEVELS.entry.level is level  # equal content: reused
+        adj.numpy()[0, 0, 1] = adj.numpy()[0, 1, 0] = 2.5  # an edge's weight, behind autograd's back
+        changed = dense(x, adj, mask)
+        assert INPUT_LEVELS.entry.level is not level
+        torch.testing.assert_close(changed, fresh(), atol=0, rtol=0)
+        assert not torch.allclose(changed, first)
+        adj.numpy()[1, 0, 5] = adj.numpy()[1, 5, 0] = 1.0  # a new edge
+        torch.testing.assert_close(dense(x, adj, mask), fresh(), atol=0, rtol=0)
+        mask[1, 8] = False  # a node fewer
+        torch.testing.assert_close(dense(x, adj, mask), fresh(), atol=0, rtol=0)
+
+
+@pytest.mark.parametrize("few_nodes", [False, True])
+def test_parameter_gradients_match_pyg(few_nodes):
+    """Also when the loss reads a few nodes only (as the actor's: frontiers), so that most
+    rows of the gradient are zero and the backward skips them."""
+    pyg, dense = pyg_and_dense()
+    graphs = random_graphs([50, 13, 1, 31], seed=13)
+    batch = pad(graphs, n_slots=60)
+    weights = torch.randn(len(batch["node_mask"].nonzero()), OUT, generator=torch.Generator().manual_seed(0))
+    if few_nodes:
+        weights[torch.arange(len(weights)) % 9 != 0] = 0.0
+    (run_pyg(pyg, graphs) * weights).sum().backward()
+    (dense(batch["x"], batch["adj"], batch["node_mask"])[batch["node_mask"]] * weights).sum().backward()
+    expected = state_dict_from_pyg({name: p.grad for name, p in pyg.named_parameters()})
+    for name, parameter in dense.named_parameters():
+        torch.testing.assert_close(parameter.grad, expected[name], atol=1e-4, rtol=1e-4, msg=name)
 
 
 def test_gradients_are_finite_and_reach_every_parameter():
