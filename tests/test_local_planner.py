@@ -242,7 +242,9 @@ def trajectories(scene, make_robot):
 
 def test_without_the_layer_paths_are_followed_bit_for_bit_as_before(office):
     """``tests/data/robot_follow_before_safety.npz`` holds these trajectories as the robot
-    of commit d2fb94a (before the layer) drove them (same helpers, same seeds)."""
+    of commit d2fb94a (before the layer) drove them (same helpers, same seeds). Only a
+    deliberate change of the unguarded motion model may regenerate it: save ``poses`` and
+    ``blocked`` of this call with ``np.savez_compressed``."""
     reference = np.load(REFERENCE)
     poses, blocked = trajectories(
         office, lambda rng: Robot(RobotConfig(), office.start_pose, office.is_free, rng,
