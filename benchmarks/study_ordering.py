@@ -37,14 +37,28 @@ RESULTS = Path(__file__).resolve().parent / "results"
 POLICIES = ["nearest", "em", "random"]
 
 
+def scene_config(scene: str, frontend: str, extra: tuple[str, ...]):
+    """The config of every run on ``scene`` (seed 0: a run's seed is its trial number)."""
+    from explore_rl.config import load_config
+
+    return load_config([f"scene={scene}", f"slam={frontend}", "seed=0", "explore.progress_bar=false", *extra])
+
+
+def explore_once(scene: str, policy: str, seed: int, frontend: str, extra: tuple[str, ...]) -> dict:
+    """One exploration, its per-decision table and final figures (``comparison.run_trial``;
+    also used by benchmarks/study_inflation.py). Raises if the run failed."""
+    trial = comparison.Trial(comparison.trial_config(scene_config(scene, frontend, extra), policy, seed), seed)
+    run = comparison.run_trial(trial)
+    if run["status"] == "error":
+        raise RuntimeError(f"{scene} {policy} seed {seed}: {run['error']}")
+    return run
+
+
 def make_trials(scenes: list[str], seeds: int, frontend: str, extra: tuple[str, ...],
                 done: set[tuple[str, str, int]]) -> list[comparison.Trial]:
     """Seed-major order (an interrupted study still holds whole (scene, policy) sets per
     seed), without the runs already in the log."""
-    from explore_rl.config import load_config
-
-    configs = {scene: load_config([f"scene={scene}", f"slam={frontend}", "seed=0", "explore.progress_bar=false",
-                                   *extra]) for scene in scenes}
+    configs = {scene: scene_config(scene, frontend, extra) for scene in scenes}
     trials = [comparison.Trial(comparison.trial_config(configs[scene], policy, seed), seed)
               for seed in range(seeds) for scene in scenes for policy in POLICIES]
     return [t for t in trials if (t.scene, t.policy, t.trial) not in done]
