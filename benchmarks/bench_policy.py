@@ -1,18 +1,24 @@
-"""Cost of the policy networks: our dense padded g-U-Net actor-critic against the same
-networks built on PyG's ``GraphUNet`` (sparse edge lists), on the same inputs.
+"""Cost of the policy networks: our padded-batch g-U-Net actor-critic
+(``explore_rl.models.graph_unet``: padded tensors in and out, packed sparse maths inside)
+against the same networks built on PyG's ``GraphUNet`` (sparse edge lists), same inputs.
 
 * **Train step**: forward + backward + Adam step of actor and critic together (an
   A2C-shaped loss: policy gradient, value regression, entropy) on one batch of
-  ``batch_size`` synthetic exploration graphs, per hidden size. Dropout is on.
+  ``batch_size`` synthetic exploration graphs, per hidden size. Dropout is on. Each step
+  packs the batch afresh, as training does with each new batch (the critic reuses the
+  actor's packing of the same observation, as in training).
 * **Decision latency**: the actor alone, eval mode, no gradients, one graph of 300 and of
-  800 nodes (the robot's per-decision cost).
+  800 nodes (the robot's per-decision cost), packed afresh each call.
 
-Both sides use the same weights (PyG's are copied into ours; the heads are shared copies),
-and the run checks that their logits agree. PyG gets its edge lists prepared outside the
-timed region; our side reads the padded tensors ``explore_rl.graph.encode`` produces. One
-torch thread (``torch.set_num_threads(1)``) so figures compare across runs and machine
-load, and because the learner shares the CPU with the env workers; each figure is the fastest
-of a few repeats (the least disturbed by other processes on a shared machine).
+Both sides use the same weights (PyG's are copied into ours; the heads and the input
+feature scaling are shared copies), and the run checks that their logits agree. PyG gets
+its edge lists prepared outside the timed region; our side reads the padded tensors
+``explore_rl.graph.encode`` produces. One torch thread (``torch.set_num_threads(1)``) so
+figures compare across runs and machine load, and because the learner shares the CPU
+with the env workers; each figure is the fastest of a few repeats (the least disturbed by
+other processes on a shared machine), ours and PyG's taking turns. ``*_cpu`` keys give the fastest CPU time of the
+thread as well: on a loaded machine wall-clock minima favour the shorter call (a longer
+one is more likely to be interrupted in every repeat), CPU time does not.
 
 Graphs come from :func:`synthetic_exploration_graph` (a random-walk pose chain with loop
 closures and frontiers, features as the encoder's contract).
@@ -40,7 +46,7 @@ from common import emit, machine, parse_args  # noqa: E402
 
 from explore_rl.models.actor_critic import GraphActor, GraphCritic  # noqa: E402
 from explore_rl.models.config import ModelConfig  # noqa: E402
-from explore_rl.models.graph_unet import state_dict_from_pyg  # noqa: E402
+from explore_rl.models.graph_unet import INPUT_LEVELS, state_dict_from_pyg  # noqa: E402
 
 
 @dataclass
@@ -232,20 +238,21 @@ class PygActorCritic(nn.Module):
         actor.unet.load_state_dict(state_dict_from_pyg(self.actor_unet.state_dict()))
         critic.unet.load_state_dict(state_dict_from_pyg(self.critic_unet.state_dict()))
         self.actor_head, self.critic_head = copy.deepcopy(actor.head), copy.deepcopy(critic.head)
+        self.scale = copy.deepcopy(actor.scale)  # model.feature_scale, as both of ours apply
 
     def actor_logits(self, x: Tensor, edge_index: Tensor, batch: Tensor, edge_weight: Tensor,
                      n_slots: int) -> Tensor:
         from torch_geometric.utils import to_dense_batch
 
-        scores = self.actor_head(self.actor_unet(x, edge_index, batch=batch, edge_weight=edge_weight))
-        return to_dense_batch(scores, batch, max_num_nodes=n_slots)[0].squeeze(-1)
+        features = self.actor_unet(self.scale(x), edge_index, batch=batch, edge_weight=edge_weight)
+        return to_dense_batch(self.actor_head(features), batch, max_num_nodes=n_slots)[0].squeeze(-1)
 
     def forward(self, batch: PolicyBatch) -> tuple[Tensor, Tensor]:
         from torch_geometric.utils import scatter
 
         x, edge_index, node_batch, edge_weight = batch.pyg
         logits = self.actor_logits(x, edge_index, node_batch, edge_weight, batch.x.shape[1])
-        features = self.critic_unet(x, edge_index, batch=node_batch, edge_weight=edge_weight)
+        features = self.critic_unet(self.scale(x), edge_index, batch=node_batch, edge_weight=edge_weight)
         scores = self.critic_head(features).squeeze(-1)
         return logits, scatter(scores, node_batch, reduce="mean")
 
@@ -256,6 +263,9 @@ class DenseActorCritic(nn.Module):
         self.actor, self.critic = actor, critic
 
     def forward(self, batch: PolicyBatch) -> tuple[Tensor, Tensor]:
+        # Every training step sees a new batch: no packing left over from the last step
+        # (the critic reuses the actor's, as in training).
+        INPUT_LEVELS.clear()
         inputs = (batch.x, batch.adj, batch.node_mask)
         return self.actor(*inputs), self.critic(*inputs).squeeze(-1)
 
@@ -270,41 +280,60 @@ def a2c_loss(logits: Tensor, values: Tensor, batch: PolicyBatch, setup: BenchSet
             - setup.entropy_coef * entropy.mean())
 
 
-def best_ms(fn: Callable[[], object], repeats: int) -> float:
-    """Fastest of ``repeats`` calls after one warm-up, in ms: the machine is shared, and
-    the minimum is the figure least disturbed by other processes."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
+@dataclass
+class Timing:
+    wall_ms: float  # fastest wall-clock time of the repeats
+    cpu_ms: float  # fastest CPU time of this thread: leaves out the time other processes ran
+
+
+def best_ms(calls: dict[str, Callable[[], object]], repeats: int) -> dict[str, Timing]:
+    """Fastest of ``repeats`` calls of each function after one warm-up each; the functions
+    take turns, so that all see the same spells of machine load. The minimum is the figure
+    least disturbed by other processes. CPU time too: under load it compares more fairly
+    than wall-clock (a longer call is more likely to be interrupted in every repeat)."""
+    for fn in calls.values():
         fn()
-        times.append(time.perf_counter() - start)
-    return 1000 * min(times)
+    wall: dict[str, list[float]] = {name: [] for name in calls}
+    cpu: dict[str, list[float]] = {name: [] for name in calls}
+    for _ in range(repeats):
+        for name, fn in calls.items():
+            start, start_cpu = time.perf_counter(), time.thread_time()
+            fn()
+            wall[name].append(time.perf_counter() - start)
+            cpu[name].append(time.thread_time() - start_cpu)
+    return {name: Timing(1000 * min(wall[name]), 1000 * min(cpu[name])) for name in calls}
 
 
-def train_step_ms(model: nn.Module, batch: PolicyBatch, setup: BenchSetup) -> float:
-    optimizer = torch.optim.Adam(model.parameters(), lr=setup.learning_rate)
-    model.train()
+def train_steps_ms(models: dict[str, nn.Module], batch: PolicyBatch, setup: BenchSetup) -> dict[str, Timing]:
+    """One A2C-shaped training step of each model (its own Adam), timed in turns."""
+    def make_step(model: nn.Module) -> Callable[[], None]:
+        optimizer = torch.optim.Adam(model.parameters(), lr=setup.learning_rate)
+        model.train()
 
-    def step() -> None:
-        optimizer.zero_grad()
-        a2c_loss(*model(batch), batch, setup).backward()
-        optimizer.step()
+        def step() -> None:
+            optimizer.zero_grad()
+            a2c_loss(*model(batch), batch, setup).backward()
+            optimizer.step()
+        return step
 
-    return best_ms(step, setup.train_repeats)
+    return best_ms({name: make_step(model) for name, model in models.items()}, setup.train_repeats)
 
 
 def decision_ms(actor: GraphActor, pyg: PygActorCritic, graph: EncodedGraph,
-                setup: BenchSetup) -> tuple[float, float]:
-    """Actor forward on one graph, eval, no gradients: (dense, PyG) milliseconds."""
+                setup: BenchSetup) -> dict[str, Timing]:
+    """Actor forward on one graph, eval, no gradients (each call a new observation)."""
     batch = make_batch([graph], np.random.default_rng(0))
     x, adj, node_mask = batch.x[0], batch.adj[0], batch.node_mask[0]  # no batch dim, as an env step
     actor.eval()
     pyg.eval()
+
+    def dense_decision() -> Tensor:
+        INPUT_LEVELS.clear()
+        return actor(x, adj, node_mask)
+
     with torch.no_grad():
-        dense = best_ms(lambda: actor(x, adj, node_mask), setup.decision_repeats)
-        sparse = best_ms(lambda: pyg.actor_logits(*batch.pyg, len(graph.x)), setup.decision_repeats)
-    return dense, sparse
+        return best_ms({"dense": dense_decision, "pyg": lambda: pyg.actor_logits(*batch.pyg, len(graph.x))},
+                       setup.decision_repeats)
 
 
 def max_logit_gap(dense: DenseActorCritic, pyg: PygActorCritic, batch: PolicyBatch) -> float:
@@ -324,11 +353,12 @@ def measure_hidden(hidden: int, batch: PolicyBatch, decision_graphs: dict[int, E
     actor, critic = GraphActor(config, 4), GraphCritic(config, 4)
     pyg = PygActorCritic(actor, critic, config, 4)
     dense = DenseActorCritic(actor, critic)
-    result = {"max_abs_diff_vs_pyg": max_logit_gap(dense, pyg, batch),
-              "ms_train_step_dense": train_step_ms(dense, batch, setup),
-              "ms_train_step_pyg": train_step_ms(pyg, batch, setup)}
+    result = {"max_abs_diff_vs_pyg": max_logit_gap(dense, pyg, batch)}
+    for name, timing in train_steps_ms({"dense": dense, "pyg": pyg}, batch, setup).items():
+        result[f"ms_train_step_{name}"], result[f"ms_train_step_{name}_cpu"] = timing.wall_ms, timing.cpu_ms
     for n, graph in decision_graphs.items():
-        result[f"ms_decision_{n}_dense"], result[f"ms_decision_{n}_pyg"] = decision_ms(actor, pyg, graph, setup)
+        for name, timing in decision_ms(actor, pyg, graph, setup).items():
+            result[f"ms_decision_{n}_{name}"], result[f"ms_decision_{n}_{name}_cpu"] = timing.wall_ms, timing.cpu_ms
     print(f"hidden {hidden}: " + ", ".join(f"{k} {v:.3g}" for k, v in result.items()), flush=True)
     return result
 
@@ -364,6 +394,10 @@ def summarise(per_hidden: dict[int, dict], setup: BenchSetup, sizes: np.ndarray,
         "ms_train_step_pyg": per("ms_train_step_pyg"),
         "speedup_train": {str(h): round(r["ms_train_step_pyg"] / r["ms_train_step_dense"], 2)
                           for h, r in per_hidden.items()},
+        "ms_train_step_dense_cpu": per("ms_train_step_dense_cpu"),
+        "ms_train_step_pyg_cpu": per("ms_train_step_pyg_cpu"),
+        "speedup_train_cpu": {str(h): round(r["ms_train_step_pyg_cpu"] / r["ms_train_step_dense_cpu"], 2)
+                              for h, r in per_hidden.items()},
         "ms_train_step_dense_1000": round(paper["ms_train_step_dense"], 2) if paper else None,
         "ms_train_step_pyg_1000": round(paper["ms_train_step_pyg"], 2) if paper else None,
         "speedup_train_1000": round(paper["ms_train_step_pyg"] / paper["ms_train_step_dense"], 2) if paper else None,
@@ -373,6 +407,7 @@ def summarise(per_hidden: dict[int, dict], setup: BenchSetup, sizes: np.ndarray,
     for n in setup.decision_nodes:
         result[f"ms_decision_{n}"] = round(per_hidden[largest][f"ms_decision_{n}_dense"], 2)
         result[f"ms_decision_{n}_pyg"] = round(per_hidden[largest][f"ms_decision_{n}_pyg"], 2)
+        result[f"ms_decision_{n}_cpu"] = round(per_hidden[largest][f"ms_decision_{n}_dense_cpu"], 2)
         result[f"ms_decision_{n}_by_hidden"] = per(f"ms_decision_{n}_dense")
     return {**result, "machine": machine()}
 

@@ -254,6 +254,10 @@ class InputLevelCache:
     def __init__(self):
         self.entry: CachedInput | None = None
 
+    def clear(self) -> None:
+        """Forget the cached level (benchmarks: every step a new observation)."""
+        self.entry = None
+
     def get(self, adj: Tensor, mask: Tensor, mode: str, min_edge_length: float) -> Level | None:
         """The input level of ``adj[..., N, N]``/``mask[..., N]`` (leading dims flattened
         into graphs, slots past the last real node trimmed); None if no node is real."""
