@@ -78,33 +78,33 @@ def node_scores(head: nn.Module, features: Tensor, node_mask: Tensor) -> Tensor:
     return packed_rows(head, features, node_mask).squeeze(-1)
 
 
-class GraphActor(nn.Module):
+class NodeScorer(nn.Module):
+    """Feature scaling -> g-U-Net -> head: one score per node, ``[..., N]`` (0 on padding)."""
+
+    def __init__(self, config: ModelConfig, n_features: int):
+        super().__init__()
+        self.scale = FeatureScale(config, n_features)
+        self.unet = make_unet(config, n_features)
+        self.head = make_node_head(config)
+
+    def node_scores(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
+        return node_scores(self.head, self.unet(self.scale(x), adj, node_mask), node_mask)
+
+
+class GraphActor(NodeScorer):
     """One logit per node, ``[..., N]``; padded nodes get logit 0 (finite, and masked
     away by ``MaskedCategorical`` anyway)."""
 
-    def __init__(self, config: ModelConfig, n_features: int):
-        super().__init__()
-        self.scale = FeatureScale(config, n_features)
-        self.unet = make_unet(config, n_features)
-        self.head = make_node_head(config)
-
     def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
-        return node_scores(self.head, self.unet(self.scale(x), adj, node_mask), node_mask.bool())
+        return self.node_scores(x, adj, node_mask.bool())
 
 
-class GraphCritic(nn.Module):
+class GraphCritic(NodeScorer):
     """V(G), ``[..., 1]``: the mean of a per-node score over the graph's real nodes."""
-
-    def __init__(self, config: ModelConfig, n_features: int):
-        super().__init__()
-        self.scale = FeatureScale(config, n_features)
-        self.unet = make_unet(config, n_features)
-        self.head = make_node_head(config)
 
     def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
         node_mask = node_mask.bool()
-        scores = node_scores(self.head, self.unet(self.scale(x), adj, node_mask), node_mask)
-        return masked_mean(scores, node_mask).unsqueeze(-1)
+        return masked_mean(self.node_scores(x, adj, node_mask), node_mask).unsqueeze(-1)
 
 
 def masked_mean(values: Tensor, mask: Tensor) -> Tensor:
