@@ -274,7 +274,9 @@ def a2c_loss(logits: Tensor, values: Tensor, batch: PolicyBatch, setup: BenchSet
     """Policy gradient + value regression - entropy bonus, over frontier nodes only."""
     log_probs = F.log_softmax(logits.masked_fill(~batch.action_mask, -torch.inf), dim=-1)
     chosen = log_probs.gather(-1, batch.action.unsqueeze(-1)).squeeze(-1)
-    entropy = -(log_probs.exp() * log_probs).masked_fill(~batch.action_mask, 0.0).sum(-1)
+    # 0 * log(0) of a masked node is NaN, and so is its gradient even when masked out after
+    # the product: take the product with finite log-probabilities only.
+    entropy = -(log_probs.exp() * log_probs.masked_fill(~batch.action_mask, 0.0)).sum(-1)
     advantage = batch.returns - values.detach()
     return (-(advantage * chosen).mean() + setup.value_coef * (batch.returns - values).square().mean()
             - setup.entropy_coef * entropy.mean())
@@ -316,7 +318,11 @@ def train_steps_ms(models: dict[str, nn.Module], batch: PolicyBatch, setup: Benc
             optimizer.step()
         return step
 
-    return best_ms({name: make_step(model) for name, model in models.items()}, setup.train_repeats)
+    timings = best_ms({name: make_step(model) for name, model in models.items()}, setup.train_repeats)
+    for name, model in models.items():  # NaN weights would time something else than training
+        if not all(bool(torch.isfinite(p).all()) for p in model.parameters()):
+            raise RuntimeError(f"{name}: the training steps made a parameter non-finite")
+    return timings
 
 
 def decision_ms(actor: GraphActor, pyg: PygActorCritic, graph: EncodedGraph,
