@@ -233,6 +233,38 @@ def input_level(adj: Tensor, mask: Tensor, mode: str, min_edge_length: float,
                        edges, symmetric=torch.equal(lengths, reverse))
 
 
+def node_extents(mask: Tensor) -> list[int]:
+    """Per graph of ``mask[B, N]``, its last real node's slot + 1 (0 for an empty graph)."""
+    slots = torch.arange(1, mask.shape[-1] + 1, device=mask.device)
+    return (slots * mask).amax(-1).tolist()
+
+
+# Scan each graph's own block of the adjacency (a Python loop over graphs) when the blocks
+# hold less than this share of the batch's trimmed B x n x n entries; else scan it whole.
+BLOCKWISE_SCAN_SHARE = 0.6
+
+
+def blockwise(extents: list[int], n: int) -> bool:
+    return sum(m * m for m in extents) < BLOCKWISE_SCAN_SHARE * len(extents) * n * n
+
+
+def nonzero_entries(adj: Tensor, extents: list[int]) -> tuple[Tensor, Tensor, Tensor]:
+    """``adj[B, n, n].nonzero()`` as ``(b, i, j)`` among each graph's slots up to its last
+    real node: padded slots past it need no scan (a batch mixes sizes)."""
+    if not blockwise(extents, adj.shape[-1]):
+        return adj.nonzero().unbind(1)
+    parts = [F.pad(adj[b, :m, :m].nonzero(), (1, 0), value=b)
+             for b, m in enumerate(extents) if m > 0]
+    return torch.cat(parts).unbind(1)
+
+
+def count_entries(adj: Tensor, extents: list[int]) -> int:
+    """How many entries :func:`nonzero_entries` finds."""
+    if not blockwise(extents, adj.shape[-1]):
+        return int(torch.count_nonzero(adj))
+    return sum(int(torch.count_nonzero(adj[b, :m, :m])) for b, m in enumerate(extents) if m > 0)
+
+
 class CachedInput(NamedTuple):
     """An input level and exactly what it was built from."""
 
@@ -245,11 +277,12 @@ class CachedInput(NamedTuple):
 
 class InputLevelCache:
     """The last input level built, reused for an input with provably the same content:
-    the actor and the critic read the same observation, and packing it scans all
-    ``B N^2`` adjacency entries (``nonzero``). The check is exact and about a third of
-    that: the same mask, as many nonzero entries, and the same values at the cached ones
-    (then no other entry can be nonzero). No tensor identity or version counter is
-    trusted, so buffers rewritten behind autograd's back (shared memory) are safe."""
+    the actor and the critic read the same observation, and packing it scans every
+    graph's ``n^2`` adjacency entries (``nonzero``). The check is exact and about a third
+    of that: the same mask, as many nonzero entries, and the same values at the cached
+    ones (then no other scanned entry can be nonzero). No tensor identity or version
+    counter is trusted, so buffers rewritten behind autograd's back (shared memory) are
+    safe."""
 
     def __init__(self):
         self.entry: CachedInput | None = None
@@ -263,7 +296,8 @@ class InputLevelCache:
         into graphs, slots past the last real node trimmed); None if no node is real."""
         n_nodes = mask.shape[-1]
         mask = mask.reshape(-1, n_nodes).bool()
-        n_used = used_node_slots(mask)
+        extents = node_extents(mask)
+        n_used = max(extents, default=0)
         if n_used == 0:
             return None
         mask = mask[:, :n_used]
@@ -271,10 +305,10 @@ class InputLevelCache:
         key = (tuple(adj.shape), adj.dtype, adj.device, mode, min_edge_length)
         entry = self.entry
         if (entry is not None and entry.key == key and torch.equal(entry.mask, mask)
-                and int(torch.count_nonzero(adj)) == entry.values.numel()
+                and count_entries(adj, extents) == entry.values.numel()
                 and torch.equal(adj[entry.entries], entry.values)):
             return entry.level
-        entries = adj.nonzero().unbind(1)
+        entries = nonzero_entries(adj, extents)
         level = input_level(adj, mask, mode, min_edge_length, entries)
         self.entry = CachedInput(key, mask.clone(), entries, adj[entries], level)
         return level
