@@ -57,6 +57,7 @@ INFO_KEYS = (
     ("loop_closures", torch.int64),
     ("keyframes", torch.int64),
     ("blocked", torch.bool),
+    ("contacts", torch.int64),  # motion steps so far whose true footprint touched an obstacle
     ("failed", torch.bool),
     ("episode", torch.int64),
 )
@@ -287,14 +288,14 @@ class ExplorationEnv(EnvBase):
         if record is not None:
             explored, map_error, loops, keyframes = (record.explored, record.map_error_m,
                                                      record.loop_closures, record.keyframes)
-            blocked = record.path_status == "blocked"
+            blocked, contacts = record.path_status == "blocked", record.contacts
         else:
             metrics = self.explorer.session.metrics()
             explored, map_error, loops, keyframes = (metrics.explored, metrics.map_error_m,
                                                      metrics.loop_closures, metrics.keyframes)
-            blocked = False
+            blocked, contacts = False, self.explorer.robot.contacts
         return dict(explored=explored, map_error=map_error, travel=self.explorer.robot.travelled,
-                    loop_closures=loops, keyframes=keyframes, blocked=blocked, failed=failed,
+                    loop_closures=loops, keyframes=keyframes, blocked=blocked, contacts=contacts, failed=failed,
                     episode=self.episode - 1)
 
     def observation(self, decision: Decision, info: dict, no_actions: bool = False) -> TensorDict:
