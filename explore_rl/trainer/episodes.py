@@ -93,23 +93,27 @@ class EpisodeTracker:
         return out
 
     def abandon_running(self) -> list[tuple[int, list[int]] | None]:
-        """After a collector failure: running episodes are dropped (logged as failed) and
-        every worker starts the episode after its last one afresh."""
-        for w, running in enumerate(self.running):
-            if running is not None:
-                self.finished.append(EpisodeSummary(
-                    worker=w, episode=running.episode, decisions=len(running.actions),
-                    mean_reward=running.reward / max(len(running.actions), 1), em_agreement=float("nan"),
-                    explored=float("nan"), map_error=float("nan"), travel=float("nan"), loop_closures=0,
-                    terminated=False, failed=True))
-                self.running[w], self.next_episode[w] = None, running.episode + 1
+        """After a collector failure: each worker's episode in progress (running, or about
+        to start if the failure came at a reset; index -1 if the failure came before any
+        batch of that worker arrived) is logged as failed, and every worker starts the
+        episode after it afresh."""
+        for w, (running, upcoming) in enumerate(zip(self.running, self.next_episode)):
+            episode = running if running is not None else RunningEpisode(-1 if upcoming is None else upcoming)
+            n = len(episode.actions)
+            self.finished.append(EpisodeSummary(
+                worker=w, episode=episode.episode, decisions=n,
+                mean_reward=episode.reward / n if n else float("nan"), em_agreement=float("nan"),
+                explored=float("nan"), map_error=float("nan"), travel=float("nan"), loop_closures=0,
+                terminated=False, failed=True))
+            self.running[w] = None
+            self.next_episode[w] = None if episode.episode < 0 else episode.episode + 1
         return self.replays()
 
     def recent_mean_reward(self, window: int) -> float | None:
-        """Mean reward per decision over the last ``window`` finished episodes."""
-        if not self.finished:
-            return None
-        return float(np.mean([e.mean_reward for e in self.finished[-window:]]))
+        """Mean reward per decision over the last ``window`` finished episodes (failed
+        ones left out)."""
+        values = [e.mean_reward for e in self.finished[-window:] if not e.failed]
+        return float(np.mean(values)) if values else None
 
     def state_dict(self) -> dict:
         return {"running": [None if r is None else asdict(r) for r in self.running],

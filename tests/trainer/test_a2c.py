@@ -159,3 +159,22 @@ def test_a_sweep_puts_each_run_in_its_own_folder(tmp_path):
     for folder in folders:
         assert (tmp_path / folder / "checkpoints" / "last.pt").is_file()
         assert (tmp_path / folder / "config.yaml").is_file()
+
+
+def test_a_worker_whose_env_raises_is_restarted_and_its_episode_logged_as_failed(tmp_path, monkeypatch):
+    from explore_rl.envs.explore_env import ExplorationEnv
+
+    original, calls = ExplorationEnv.new_explorer, {"n": 0}
+
+    def flaky(self):
+        calls["n"] += 1
+        if calls["n"] == 2:  # the second episode's start (an auto-reset inside the collector)
+            raise RuntimeError("scene server unavailable")
+        return original(self)
+
+    monkeypatch.setattr(ExplorationEnv, "new_explorer", flaky)
+    run = TrainingRun(config_for("train.frames=30", "explore.travel_budget=10"), tmp_path)
+    state = run.run()
+    assert state.frames >= 30 and run.failed_collections == 1
+    assert calls["n"] > 2
+    assert any(e.failed for e in run.episodes.finished)
