@@ -145,7 +145,9 @@ def explore(cfg: DictConfig) -> None:
                f"map error {last.map_error_m if last else 0:.3f} m, loop closures {last.loop_closures if last else 0}")
     fig = exploration_figure(explorer, f"{name}: {summary}")
     figure = viz.save(fig, out_dir / f"{name}.png")
-    print(summary)
+    safety = (f", blocked decisions {last.blocked_decisions}, contacts {last.contacts}, "
+              f"min clearance {last.min_clearance_m:.3f} m") if last else ""
+    print(summary + safety)
     print(f"wrote {out_dir / (name + '.csv')} and {figure}")
     if frames:
         import imageio.v2 as imageio
@@ -194,7 +196,8 @@ def compare(cfg: DictConfig) -> None:
         last = result.records[-1]
         lines.append(f"{name:8s} {result.status.value:22s} travel {explorer.robot.travelled:6.1f} m  "
                      f"explored {100 * last.explored:5.1f} %  map error {last.map_error_m:.3f} m  "
-                     f"volume {last.volume_m3:6.1f} m3  loop closures {last.loop_closures}")
+                     f"volume {last.volume_m3:6.1f} m3  loop closures {last.loop_closures}  "
+                     f"blocked {last.blocked_decisions}  contacts {last.contacts}")
     scene_name = config.scene.name
     figure = viz.save(comparison_figure(runs, scene_name), out_dir / f"{scene_name}_comparison.png")
     print("\n".join(lines))
