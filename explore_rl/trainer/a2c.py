@@ -37,6 +37,7 @@ from torchrl.objectives import A2CLoss, ValueEstimators
 
 from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env
+from explore_rl.graph.exploration_graph import FEATURES
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.trainer.checkpoint import Checkpoint, check_weights, load_checkpoint, save_checkpoint
 from explore_rl.trainer.episodes import EpisodeTracker
@@ -44,7 +45,7 @@ from explore_rl.trainer.logs import RunLogger
 
 log = logging.getLogger(__name__)
 
-N_FEATURES = 4  # x[N, 4]: uncertainty, distance, bearing, identity (explore_rl/graph)
+N_FEATURES = len(FEATURES)  # uncertainty, distance, bearing, identity
 ESTIMATOR_TYPES = {"gae": ValueEstimators.GAE, "td_lambda": ValueEstimators.TDLambda,
                    "td0": ValueEstimators.TD0}
 BEST_WINDOW = 20  # finished episodes averaged for the "best" checkpoint

@@ -21,12 +21,10 @@ from typing import Callable
 import numpy as np
 import torch
 from tensordict import TensorDictBase
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from explore_rl.config import Config
 from explore_rl.envs.factory import make_env
-from explore_rl.models.actor_critic import make_actor
-from explore_rl.trainer.checkpoint import check_weights, load_checkpoint
+from explore_rl.models.actor_file import load_actor
 
 EVAL_SEED = 1_000_003  # episode seeds derive from it; training seeds derive from config.seed
 
@@ -46,16 +44,14 @@ class EvalEpisode:
 
 
 def greedy_actor(config: Config, checkpoint_path: Path) -> Chooser:
-    """The checkpoint's actor choosing its most probable frontier."""
-    checkpoint = load_checkpoint(checkpoint_path, config)
-    actor = make_actor(config.model, 4, make_env(config).action_spec)
-    check_weights(checkpoint_path, "actor", checkpoint.actor, actor)
-    actor.load_state_dict(checkpoint.actor)
-    actor.eval()
+    """The checkpoint's actor (training checkpoint or actor file) choosing its most probable
+    frontier: the highest logit among the ``action_mask`` rows."""
+    actor, _ = load_actor(checkpoint_path, expected_model=config.model)
 
     def choose(td: TensorDictBase) -> int:
-        with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
-            return int(actor(td.clone())["action"])
+        with torch.no_grad():
+            logits = actor(td["x"], td["adj"], td["node_mask"])
+        return int(logits.masked_fill(~td["action_mask"], -torch.inf).argmax())
 
     return choose
 
