@@ -175,7 +175,12 @@ def validate_training(config: Config) -> None:
         raise ValueError(f"algo.estimator={algo.estimator!r}: choose one of {', '.join(ESTIMATORS)}")
     at_least_one = {"algo.steps_per_update": algo.steps_per_update, "collector.workers": collector.workers,
                     "train.frames": train.frames, "train.checkpoint_every": train.checkpoint_every,
-                    "train.threads": train.threads}
+                    "train.threads": train.threads, "algo.imitation_batch": algo.imitation_batch,
+                    "algo.imitation_buffer": algo.imitation_buffer}
+    if algo.imitation_replay_steps < 0:
+        raise ValueError(f"algo.imitation_replay_steps must be >= 0 (0 = no replay), got {algo.imitation_replay_steps}")
+    if algo.imitation_replay_steps > 0 and algo.imitation_coef == 0:
+        raise ValueError("algo.imitation_replay_steps > 0 needs algo.imitation_coef > 0 (the weight of those steps)")
     if train.snapshot_every < 0:
         raise ValueError(f"train.snapshot_every must be >= 0 (0 = no snapshots), got {train.snapshot_every}")
     for key, value in at_least_one.items():

@@ -4,17 +4,21 @@ One iteration: every worker takes ``algo.steps_per_update`` decisions with the c
 policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``), the batch
 ``[workers, T]`` gets its advantages from a TorchRL value estimator (GAE by default, per
 worker so trajectories never join), ``A2CLoss`` (+ an optional imitation term towards
-EM's choice) gives one Adam step, the collectors receive the new weights.
+EM's choice) gives one Adam step, optionally followed by ``algo.imitation_replay_steps``
+supervised steps on EM-labelled decisions replayed from a buffer
+(explore_rl/trainer/imitation.py), and the collectors receive the new weights.
 
 What is TorchRL's: collectors, ``ProbabilisticActor``/``MaskedCategorical``/``ValueOperator``
 (explore_rl/models), ``A2CLoss`` and its value estimators, ``CSVLogger``/``TensorboardLogger``.
 What is written here, and why: the loop itself (``torchrl.trainers.A2CTrainer`` is a
 prototype that warns on construction, and its checkpoints restore neither the
 environments' mid-episode state nor the RNG, which an exact resume needs); the NaN guard
-(skip an update, count it); the imitation term; per-episode exploration figures.
+(skip an update, count it); the imitation term and its replay; per-episode exploration
+figures.
 
 Exact resume: a checkpoint holds the weights, the optimiser, the torch RNG, the counters
-and, per worker, the current episode's index and the actions taken in it. Resuming
+and, per worker, the current episode's index and the actions taken in it (``last.pt`` also
+holds the imitation buffer). Resuming
 rebuilds each worker's env from a factory that replays that episode (every part of it is
 seeded), so with one worker the next update equals the uninterrupted run's.
 """
@@ -41,6 +45,7 @@ from explore_rl.graph.exploration_graph import FEATURES
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.trainer.checkpoint import Checkpoint, check_weights, load_checkpoint, save_checkpoint
 from explore_rl.trainer.episodes import EpisodeTracker
+from explore_rl.trainer.imitation import compact_decisions, make_label_buffer
 from explore_rl.trainer.logs import RunLogger
 
 log = logging.getLogger(__name__)
@@ -65,6 +70,7 @@ class UpdateStats:
     loss_imitation: float
     entropy: float
     grad_norm: float
+    loss_replay: float | None = None  # mean imitation loss of the replayed minibatches
 
 
 class Learner:
@@ -83,6 +89,7 @@ class Learner:
             hyper["lmbda"] = algo.lmbda
         self.loss.make_value_estimator(ESTIMATOR_TYPES[algo.estimator], **hyper)
         self.optimizer = torch.optim.Adam(self.loss.parameters(), lr=algo.lr)
+        self.labels = make_label_buffer(algo.imitation_buffer, algo.imitation_batch)
         self.skipped_updates = 0
         self.set_training(False)
 
@@ -117,7 +124,39 @@ class Learner:
         return UpdateStats(
             loss_objective=losses["loss_objective"].item(), loss_critic=losses["loss_critic"].item(),
             loss_entropy=losses.get("loss_entropy", zero).item(), loss_imitation=imitation.item(),
-            entropy=losses.get("entropy", zero).item(), grad_norm=grad_norm.item())
+            entropy=losses.get("entropy", zero).item(), grad_norm=grad_norm.item(),
+            loss_replay=self.replay(batch))
+
+    def replay(self, batch: TensorDictBase) -> float | None:
+        """Keep ``batch``'s EM-labelled decisions, then take ``algo.imitation_replay_steps``
+        Adam steps on the imitation loss of minibatches drawn from all kept ones (DAgger).
+        Returns the mean loss (None when replay is off); a non-finite step is skipped."""
+        algo = self.config.algo
+        if algo.imitation_replay_steps == 0:
+            return None
+        decisions = compact_decisions(batch)
+        if decisions:
+            self.labels.extend(decisions)
+        if len(self.labels) == 0:
+            return None
+        losses = []
+        self.set_training(True)
+        try:
+            for _ in range(algo.imitation_replay_steps):
+                loss = algo.imitation_coef * self.imitation_loss(self.labels.sample())
+                self.optimizer.zero_grad()
+                if torch.isfinite(loss):
+                    loss.backward()
+                    grad_norm = torch.nn.utils.clip_grad_norm_(self.loss.parameters(), algo.max_grad_norm)
+                if not torch.isfinite(loss) or not torch.isfinite(grad_norm):
+                    self.optimizer.zero_grad()
+                    log.warning("a replayed imitation step was skipped (not finite)")
+                    continue
+                self.optimizer.step()
+                losses.append(loss.item())
+        finally:
+            self.set_training(False)
+        return sum(losses) / len(losses) if losses else None
 
     def imitation_loss(self, batch: TensorDictBase) -> torch.Tensor:
         """Cross-entropy of the policy towards EM's choice where EM gave one (0 if none,
@@ -211,6 +250,8 @@ class TrainingRun:
         self.learner.actor.load_state_dict(checkpoint.actor)
         self.learner.critic.load_state_dict(checkpoint.critic)
         self.learner.optimizer.load_state_dict(checkpoint.optimizer)
+        if checkpoint.label_buffer is not None:
+            self.learner.labels.load_state_dict(checkpoint.label_buffer)
         self.state = RunState(**checkpoint.state)
         self.learner.skipped_updates = self.state.skipped_updates
         self.episodes.load_state_dict(self.state.episodes)
@@ -285,7 +326,9 @@ class TrainingRun:
         return save_checkpoint(self.checkpoints / f"{name}.pt", Checkpoint(
             config=self.config, actor=self.learner.actor.state_dict(), critic=self.learner.critic.state_dict(),
             optimizer=self.learner.optimizer.state_dict(), state=dataclasses.asdict(self.state),
-            torch_rng=torch.get_rng_state()))
+            torch_rng=torch.get_rng_state(),
+            # the replay buffer only where a resume reads it: snapshots stay small
+            label_buffer=self.learner.labels.state_dict() if name == "last" else None))
 
 
 def train(config: Config, run_dir: str | Path) -> RunState:

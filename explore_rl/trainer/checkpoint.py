@@ -31,6 +31,7 @@ class Checkpoint:
     optimizer: dict[str, Any]
     state: dict[str, Any]  # RunState as a dict
     torch_rng: torch.Tensor
+    label_buffer: dict[str, Any] | None = None  # the imitation replay buffer (last.pt only)
 
 
 class CheckpointError(ValueError):
@@ -49,6 +50,7 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> Path:
         "optimizer": checkpoint.optimizer,
         "state": checkpoint.state,
         "torch_rng": checkpoint.torch_rng,
+        "label_buffer": checkpoint.label_buffer,
     }
     partial = path.with_suffix(".tmp")
     torch.save(payload, partial)
@@ -109,4 +111,5 @@ def load_checkpoint(path: Path, config: Config) -> Checkpoint:
     payload = read_checkpoint(path)
     check_model(path, payload["model"], config)
     return Checkpoint(config=config, actor=payload["actor"], critic=payload["critic"],
-                      optimizer=payload["optimizer"], state=payload["state"], torch_rng=payload["torch_rng"])
+                      optimizer=payload["optimizer"], state=payload["state"], torch_rng=payload["torch_rng"],
+                      label_buffer=payload.get("label_buffer"))

@@ -23,6 +23,11 @@ class AlgoConfig:
     # Weight of a cross-entropy term towards EM's choice at the same decision (the env
     # computes it for the reward anyway): 0 is the paper's plain A2C.
     imitation_coef: float = 0.0
+    # Extra supervised steps per update on decisions replayed from a buffer of the last
+    # ``imitation_buffer`` EM-labelled ones (explore_rl/trainer/imitation.py; 0 = none).
+    imitation_replay_steps: int = 0
+    imitation_batch: int = 16  # decisions per replayed minibatch
+    imitation_buffer: int = 3000  # labelled decisions kept (saved in checkpoints/last.pt)
     max_grad_norm: float = 1.0  # gradient clipping (L2 norm over all parameters)
     steps_per_update: int = 10  # decisions per worker between updates (paper: 10)
 

@@ -60,7 +60,8 @@ def test_an_update_changes_the_weights_and_reports_finite_figures(batch):
     learner = Learner(config, make_env(config).action_spec)
     before = {k: v.clone() for k, v in learner.actor.state_dict().items()}
     stats = learner.update(batch.clone())
-    assert all(torch.isfinite(torch.tensor(v)) for v in vars(stats).values())
+    assert stats.loss_replay is None  # replay is off by default
+    assert all(torch.isfinite(torch.tensor(v)) for v in vars(stats).values() if v is not None)
     assert stats.loss_imitation > 0 and stats.grad_norm > 0
     assert any(not torch.equal(v, before[k]) for k, v in learner.actor.state_dict().items())
 
@@ -86,7 +87,8 @@ def test_the_sampled_action_is_always_a_frontier(batch):
 
 def test_resume_gives_the_same_next_update_as_an_uninterrupted_run(tmp_path):
     uninterrupted, killed = tmp_path / "a", tmp_path / "b"
-    common = ["train.checkpoint_every=1", "algo.imitation_coef=1.0"]
+    common = ["train.checkpoint_every=1", "algo.imitation_coef=1.0", "algo.imitation_replay_steps=2",
+              "algo.imitation_batch=3"]
     train(config_for(*common, "train.frames=20"), uninterrupted)
     train(config_for(*common, "train.frames=10"), killed)  # stops after 2 updates ...
     state = train(config_for(*common, "train.frames=20", "resume=true"), killed)  # ... and resumes
@@ -141,6 +143,7 @@ def test_bad_checkpoints_fail_with_one_line_naming_the_file(tmp_path):
     ("algo.lr=-1", "algo.lr must be positive"),
     ("algo.estimator=mc", "algo.estimator='mc'"),
     ("collector.workers=0", "collector.workers must be >= 1"),
+    ("algo.imitation_replay_steps=2", "needs algo.imitation_coef > 0"),
     ("collector.backend=slurm", "collector.backend='slurm'"),
     ("model.hidden=0", "model.hidden must be a positive int"),
 ])

@@ -1,0 +1,70 @@
+"""EM-labelled decisions kept for imitation: a TorchRL replay buffer of compact graphs.
+
+The env scores every decision with EM (the Algorithm 1 reward) and so knows EM's choice
+(``em_action``) at no extra cost. A2C uses each decision once; kept here, every labelled
+decision the policy has visited also feeds ``algo.imitation_replay_steps`` supervised
+steps per update (DAgger: the states come from the learner's own policy, the labels from
+the expert), which is what makes an hour of CPU collection enough to move the policy.
+
+Graphs have different sizes, and a padded ``adj[N, N]`` per decision would cost a
+megabyte, so each decision is stored trimmed to its real nodes with its edges as a list
+(``ListStorage`` holds tensordicts of any shape); :func:`pad_graphs` rebuilds a padded
+batch, as wide as the largest graph sampled, for the actor.
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import ListStorage, ReplayBuffer
+
+
+def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
+    """The decisions of ``batch`` (any batch shape) that have an EM label and a frontier,
+    each as a small tensordict: ``x[n, F]``, ``edges[2, E]`` (i < j), ``weights[E]``,
+    ``action_mask[n]``, ``em_action``."""
+    flat = batch.reshape(-1)
+    labelled = (flat["em_action"] >= 0) & flat["action_mask"].any(-1)
+    decisions = []
+    for index in torch.nonzero(labelled).flatten().tolist():
+        node_mask = flat["node_mask"][index].bool()
+        n = int(node_mask.sum())  # real nodes come first (explore_rl.graph.encode)
+        upper = torch.triu(flat["adj"][index, :n, :n], diagonal=1)
+        edges = torch.nonzero(upper).T.to(torch.int32)
+        decisions.append(TensorDict({
+            "x": flat["x"][index, :n].clone(),
+            "edges": edges,
+            "weights": upper[edges[0].long(), edges[1].long()],
+            "action_mask": flat["action_mask"][index, :n].clone(),
+            "em_action": flat["em_action"][index].clone(),
+        }, batch_size=[]))
+    return decisions
+
+
+def pad_graphs(decisions: list[TensorDictBase]) -> TensorDict:
+    """A padded batch ``[B]`` (``x``, symmetric ``adj``, ``node_mask``, ``action_mask``,
+    ``em_action``) of compact decisions, ``n = `` the largest graph's size."""
+    sizes = [d["x"].shape[0] for d in decisions]
+    width, features = max(sizes), decisions[0]["x"].shape[-1]
+    count = len(decisions)
+    x = torch.zeros(count, width, features)
+    adj = torch.zeros(count, width, width)
+    node_mask = torch.zeros(count, width, dtype=torch.bool)
+    action_mask = torch.zeros(count, width, dtype=torch.bool)
+    for row, (decision, n) in enumerate(zip(decisions, sizes)):
+        x[row, :n] = decision["x"]
+        i, j = decision["edges"].long()
+        adj[row, i, j] = decision["weights"]
+        adj[row, j, i] = decision["weights"]
+        node_mask[row, :n] = True
+        action_mask[row, :n] = decision["action_mask"]
+    labels = torch.stack([d["em_action"] for d in decisions])
+    return TensorDict({"x": x, "adj": adj, "node_mask": node_mask, "action_mask": action_mask,
+                       "em_action": labels}, batch_size=[count])
+
+
+def make_label_buffer(capacity: int, batch_size: int) -> ReplayBuffer:
+    """A replay buffer of the last ``capacity`` labelled decisions, sampled uniformly
+    (with the global torch RNG, so an exact resume samples the same minibatches)."""
+    return ReplayBuffer(storage=ListStorage(max_size=capacity), batch_size=batch_size,
+                        collate_fn=pad_graphs)
