@@ -29,6 +29,7 @@ from explore_rl.tour import TourConfig
 from explore_rl.trainer.config import (
     BACKENDS,
     ESTIMATORS,
+    IMITATION_TARGETS,
     LOGGERS,
     AlgoConfig,
     CollectorConfig,
@@ -177,6 +178,9 @@ def validate_training(config: Config) -> None:
                     "train.frames": train.frames, "train.checkpoint_every": train.checkpoint_every,
                     "train.threads": train.threads, "algo.imitation_batch": algo.imitation_batch,
                     "algo.imitation_buffer": algo.imitation_buffer}
+    if algo.imitation_target not in IMITATION_TARGETS:
+        raise ValueError(f"algo.imitation_target={algo.imitation_target!r}: choose one of "
+                         f"{', '.join(IMITATION_TARGETS)}")
     if algo.imitation_replay_steps < 0:
         raise ValueError(f"algo.imitation_replay_steps must be >= 0 (0 = no replay), got {algo.imitation_replay_steps}")
     if algo.imitation_replay_steps > 0 and algo.imitation_coef == 0:

@@ -9,8 +9,10 @@ drives the path with SLAM (``Explorer.act``), the same exploration step the plai
 uses.
 
 Each decision is evaluated when it is observed, so the observation also carries EM's
-choice (``em_action``) and the nearest frontier (``nearest_action``) of that state -- the
-labels an imitation term needs, aligned with the action taken there.
+choice (``em_action``), the Algorithm 1 reward every frontier node would have earned
+(``action_rewards``, 0 on other rows and when EM failed) and the nearest frontier
+(``nearest_action``) of that state -- the labels an imitation term needs, aligned with the
+action taken there.
 
 An episode can be restored (:meth:`ExplorationEnv.restore`): the next reset re-runs
 episode ``k`` from its seed and replays the recorded actions, which reproduces the state
@@ -114,6 +116,7 @@ class ExplorationEnv(EnvBase):
             node_mask=Categorical(shape=(n,), **flag),
             action_mask=Categorical(shape=(n,), **flag),
             em_action=Bounded(-1, n - 1, shape=(), dtype=torch.int64, device=device),
+            action_rewards=Bounded(-1.0, 1.0, shape=(n,), dtype=torch.float32, device=device),
             nearest_action=Bounded(0, n - 1, shape=(), dtype=torch.int64, device=device),
             **{key: Unbounded((), dtype=dtype, device=device) for key, dtype in INFO_KEYS},
             device=device,
@@ -310,10 +313,19 @@ class ExplorationEnv(EnvBase):
             "node_mask": torch.from_numpy(encoded.node_mask),
             "action_mask": torch.from_numpy(action_mask),
             "em_action": torch.tensor(em_action, dtype=torch.int64),
+            "action_rewards": torch.from_numpy(self.action_rewards(decision)),
             "nearest_action": torch.tensor(decision.action_row(0), dtype=torch.int64),
         }
         values.update({key: torch.tensor(info[key], dtype=dtype) for key, dtype in INFO_KEYS})
         return TensorDict(values, batch_size=())
+
+    def action_rewards(self, decision: Decision) -> np.ndarray:
+        """``(N,)``: each frontier row's Algorithm 1 reward; 0 elsewhere or if EM failed."""
+        rewards = np.zeros(self.max_nodes, dtype=np.float32)
+        if decision.rewards is not None:
+            for k, reward in enumerate(decision.rewards):
+                rewards[decision.action_row(k)] = reward
+        return rewards
 
     def timings_ms(self) -> dict[str, float]:
         """Milliseconds per stage summed over all steps so far."""

@@ -159,13 +159,21 @@ class Learner:
         return sum(losses) / len(losses) if losses else None
 
     def imitation_loss(self, batch: TensorDictBase) -> torch.Tensor:
-        """Cross-entropy of the policy towards EM's choice where EM gave one (0 if none,
-        or if ``algo.imitation_coef`` is 0: then the actor is not run twice)."""
+        """The supervised term on decisions EM evaluated (0 if none, or if
+        ``algo.imitation_coef`` is 0: then the actor is not run twice).
+
+        ``algo.imitation_target``: ``em_choice`` is the cross-entropy towards EM's choice;
+        ``rewards`` is minus the policy's expected Algorithm 1 reward over *every* frontier
+        node (the env evaluates them all): the full-information form of the policy
+        gradient, with no sampling noise and no credit for EM's exact tie-breaks."""
         labels = batch["em_action"]
         known = labels >= 0
         if self.config.algo.imitation_coef == 0 or not known.any():
             return torch.zeros(())
         dist = self.actor.get_dist(batch)
+        if self.config.algo.imitation_target == "rewards":
+            expected = (dist.probs * batch["action_rewards"]).sum(-1)
+            return -expected[known].mean()
         return -dist.log_prob(labels.clamp_min(0))[known].mean()
 
     def skip(self, reason: str) -> None:

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 ESTIMATORS = ("gae", "td_lambda", "td0")
+IMITATION_TARGETS = ("em_choice", "rewards")
 BACKENDS = ("local", "ray")
 LOGGERS = ("csv", "tensorboard")
 
@@ -23,6 +24,9 @@ class AlgoConfig:
     # Weight of a cross-entropy term towards EM's choice at the same decision (the env
     # computes it for the reward anyway): 0 is the paper's plain A2C.
     imitation_coef: float = 0.0
+    # What it imitates: em_choice (cross-entropy towards EM's pick) | rewards (maximise the
+    # expected Algorithm 1 reward over every frontier node, which the env evaluates)
+    imitation_target: str = "em_choice"
     # Extra supervised steps per update on decisions replayed from a buffer of the last
     # ``imitation_buffer`` EM-labelled ones (explore_rl/trainer/imitation.py; 0 = none).
     imitation_replay_steps: int = 0

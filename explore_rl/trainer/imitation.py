@@ -22,7 +22,7 @@ from torchrl.data import ListStorage, ReplayBuffer
 def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
     """The decisions of ``batch`` (any batch shape) that have an EM label and a frontier,
     each as a small tensordict: ``x[n, F]``, ``edges[2, E]`` (i < j), ``weights[E]``,
-    ``action_mask[n]``, ``em_action``."""
+    ``action_mask[n]``, ``action_rewards[n]``, ``em_action``."""
     flat = batch.reshape(-1)
     labelled = (flat["em_action"] >= 0) & flat["action_mask"].any(-1)
     decisions = []
@@ -36,6 +36,7 @@ def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
             "edges": edges,
             "weights": upper[edges[0].long(), edges[1].long()],
             "action_mask": flat["action_mask"][index, :n].clone(),
+            "action_rewards": flat["action_rewards"][index, :n].clone(),
             "em_action": flat["em_action"][index].clone(),
         }, batch_size=[]))
     return decisions
@@ -43,7 +44,7 @@ def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
 
 def pad_graphs(decisions: list[TensorDictBase]) -> TensorDict:
     """A padded batch ``[B]`` (``x``, symmetric ``adj``, ``node_mask``, ``action_mask``,
-    ``em_action``) of compact decisions, ``n = `` the largest graph's size."""
+    ``action_rewards``, ``em_action``) of compact decisions, ``n = `` the largest graph's size."""
     sizes = [d["x"].shape[0] for d in decisions]
     width, features = max(sizes), decisions[0]["x"].shape[-1]
     count = len(decisions)
@@ -51,6 +52,7 @@ def pad_graphs(decisions: list[TensorDictBase]) -> TensorDict:
     adj = torch.zeros(count, width, width)
     node_mask = torch.zeros(count, width, dtype=torch.bool)
     action_mask = torch.zeros(count, width, dtype=torch.bool)
+    action_rewards = torch.zeros(count, width)
     for row, (decision, n) in enumerate(zip(decisions, sizes)):
         x[row, :n] = decision["x"]
         i, j = decision["edges"].long()
@@ -58,9 +60,10 @@ def pad_graphs(decisions: list[TensorDictBase]) -> TensorDict:
         adj[row, j, i] = decision["weights"]
         node_mask[row, :n] = True
         action_mask[row, :n] = decision["action_mask"]
+        action_rewards[row, :n] = decision["action_rewards"]
     labels = torch.stack([d["em_action"] for d in decisions])
     return TensorDict({"x": x, "adj": adj, "node_mask": node_mask, "action_mask": action_mask,
-                       "em_action": labels}, batch_size=[count])
+                       "action_rewards": action_rewards, "em_action": labels}, batch_size=[count])
 
 
 def make_label_buffer(capacity: int, batch_size: int) -> ReplayBuffer:
