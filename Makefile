@@ -30,6 +30,7 @@ test: lint
 	$(PY) -m pytest -n 2
 
 test-slow: $(STAMP)
+	$(PY) -c "import ray" 2>/dev/null || $(PY) -m pip install -e ".[ray]"
 	$(PY) -m pytest -n 2 -m slow
 
 bench: $(STAMP)

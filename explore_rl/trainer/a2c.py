@@ -28,7 +28,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -195,12 +194,9 @@ def make_collector(config: Config, actor, replays: list | None = None):
     factories = [EnvFactory(config, worker=i, replay=replays[i]) for i in range(workers)]
     common = dict(frames_per_batch=workers * steps, total_frames=-1, exploration_type=ExplorationType.RANDOM)
     if config.collector.backend == "ray":
-        from torchrl.collectors.distributed import RayCollector
+        from explore_rl.trainer.ray_backend import make_ray_collector  # ray is an optional extra
 
-        # a cluster at ray_address, else a local instance sized to this machine
-        ray_init = ({"address": config.collector.ray_address} if config.collector.ray_address
-                    else {"num_cpus": os.cpu_count()})
-        return RayCollector(factories, actor, sync=True, ray_init_config=ray_init, **common)
+        return make_ray_collector(factories, actor, config.collector, **common)
     common["auto_register_policy_transforms"] = False  # our env needs no policy transforms
     if workers == 1:
         return Collector(factories[0], actor, **common)

@@ -62,6 +62,9 @@ def test_reward_is_algorithm_1_on_an_independent_em_evaluation_of_the_same_state
     np.testing.assert_array_equal(evaluation.indices, [a.candidate for a in decision.actions])
     np.testing.assert_allclose(decision.rewards, expected)
     assert td["em_action"].item() == decision.action_row(evaluation.best)
+    rows = [decision.action_row(k) for k in range(len(decision.actions))]
+    np.testing.assert_allclose(td["action_rewards"][rows].numpy(), expected, atol=1e-6)
+    assert (td["action_rewards"][~td["action_mask"]] == 0).all()
     last = len(decision.actions) - 1
     row = decision.action_row(last)
     out = env.step(td.clone().set("action", torch.tensor(row)))
@@ -136,6 +139,7 @@ def test_an_em_failure_gives_reward_zero_and_the_run_goes_on(monkeypatch):
     monkeypatch.setattr(env.em, "evaluate", broken)
     out = env.step(td.set("action", td["nearest_action"]))["next"]
     assert out["em_action"].item() == -1 and not out["done"].item()
+    assert (out["action_rewards"] == 0).all()
     out = env.step(out.set("action", out["nearest_action"]))
     assert out["next", "reward"].item() == 0.0
     assert env.failures["em"] == 2
