@@ -25,7 +25,7 @@ from common import emit, machine  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.trainer.a2c import Learner  # noqa: E402
-from explore_rl.trainer.checkpoint import read_checkpoint  # noqa: E402
+from explore_rl.trainer.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
 from explore_rl.trainer.imitation import make_label_buffer, pad_graphs  # noqa: E402
 
 BATCH = 16
@@ -33,7 +33,10 @@ BATCH = 16
 
 def kept_decisions(run_dir: Path) -> list:
     """The labelled decisions in ``run_dir``'s replay buffer."""
-    payload = read_checkpoint(Path(run_dir) / "checkpoints" / "last.pt")
+    try:
+        payload = read_checkpoint(Path(run_dir) / "checkpoints" / "last.pt")
+    except CheckpointError as error:
+        raise SystemExit(f"error: {error}") from None
     if payload.get("label_buffer") is None:
         raise SystemExit(f"{run_dir}: no replay buffer in last.pt (train with algo.imitation_replay_steps > 0)")
     buffer = make_label_buffer(10**6, BATCH)

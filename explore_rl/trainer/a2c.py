@@ -108,15 +108,9 @@ class Learner:
             total = sum(value for key, value in losses.items() if key.startswith("loss_"))
             imitation = self.imitation_loss(batch)
             total = total + self.config.algo.imitation_coef * imitation
-            if not torch.isfinite(total):
-                return self.skip(f"loss is {total.item()}")
-            self.optimizer.zero_grad()
-            total.backward()
-            grad_norm = torch.nn.utils.clip_grad_norm_(self.loss.parameters(), self.config.algo.max_grad_norm)
-            if not torch.isfinite(grad_norm):
-                self.optimizer.zero_grad()
-                return self.skip(f"gradient norm is {grad_norm.item()}")
-            self.optimizer.step()
+            grad_norm, why_not = self.gradient_step(total)
+            if grad_norm is None:
+                return self.skip(why_not)
         finally:
             self.set_training(False)
         zero = torch.zeros(())  # A2CLoss leaves out the entropy terms when entropy_coef is 0
@@ -125,6 +119,20 @@ class Learner:
             loss_entropy=losses.get("loss_entropy", zero).item(), loss_imitation=imitation.item(),
             entropy=losses.get("entropy", zero).item(), grad_norm=grad_norm.item(),
             loss_replay=self.replay(batch))
+
+    def gradient_step(self, loss: torch.Tensor) -> tuple[torch.Tensor | None, str]:
+        """Backward, clipping and one Adam step on ``loss``: ``(grad_norm, "")``; or, if the
+        loss or the gradient is not finite, no step and ``(None, why)`` (the NaN guard)."""
+        if not torch.isfinite(loss):
+            return None, f"loss is {loss.item()}"
+        self.optimizer.zero_grad()
+        loss.backward()
+        grad_norm = torch.nn.utils.clip_grad_norm_(self.loss.parameters(), self.config.algo.max_grad_norm)
+        if not torch.isfinite(grad_norm):
+            self.optimizer.zero_grad()
+            return None, f"gradient norm is {grad_norm.item()}"
+        self.optimizer.step()
+        return grad_norm, ""
 
     def replay(self, batch: TensorDictBase) -> float | None:
         """Keep ``batch``'s EM-labelled decisions, then take ``algo.imitation_replay_steps``
@@ -143,15 +151,10 @@ class Learner:
         try:
             for _ in range(algo.imitation_replay_steps):
                 loss = algo.imitation_coef * self.imitation_loss(self.labels.sample())
-                self.optimizer.zero_grad()
-                if torch.isfinite(loss):
-                    loss.backward()
-                    grad_norm = torch.nn.utils.clip_grad_norm_(self.loss.parameters(), algo.max_grad_norm)
-                if not torch.isfinite(loss) or not torch.isfinite(grad_norm):
-                    self.optimizer.zero_grad()
-                    log.warning("a replayed imitation step was skipped (not finite)")
+                grad_norm, why_not = self.gradient_step(loss)
+                if grad_norm is None:
+                    log.warning("a replayed imitation step was skipped (%s)", why_not)
                     continue
-                self.optimizer.step()
                 losses.append(loss.item())
         finally:
             self.set_training(False)
