@@ -9,7 +9,7 @@ whether issue 13's bar (nearest + half of EM - nearest) is met. Training curves 
 reward and EM agreement against wall-clock) of all runs go into one figure and a CSV.
 
     python benchmarks/study_learning.py --runs runs/office_imitation_s0 runs/office_plain_s0 \\
-        [--snapshots] [--max-decisions 15] [--out benchmarks/results/learning] [--smoke]
+        [--snapshots] [--checkpoint last|best|update_<k>] [--max-decisions 15] [--out benchmarks/results/learning] [--smoke]
 """
 
 from __future__ import annotations
@@ -117,6 +117,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", nargs="*", default=[])
     parser.add_argument("--snapshots", action="store_true", help="evaluate every numbered snapshot too")
+    parser.add_argument("--checkpoint", default="last",
+                        help="which checkpoint of each run: last, best or update_<k> (e.g. a 2-hour snapshot)")
     parser.add_argument("--max-decisions", type=int, default=15)
     parser.add_argument("--starts", type=int, nargs="*", default=list(range(9)))
     parser.add_argument("--out", default=None)
@@ -137,7 +139,7 @@ def main() -> None:
     for run_dir in runs:
         config = load_saved_config(run_dir / "config.yaml")
         checkpoints = sorted((run_dir / "checkpoints").glob("update_*.pt")) if args.snapshots else []
-        checkpoints.append(run_dir / "checkpoints" / "last.pt")
+        checkpoints.append(run_dir / "checkpoints" / f"{args.checkpoint}.pt")
         evaluations = {}
         for path in checkpoints:
             summary = summarize(evaluate(config, "learned", greedy_actor(config, path), args.starts,
