@@ -11,7 +11,9 @@ Shared by ``explore-rl-eval`` (explore_rl/cli.py) and ``benchmarks/study_orderin
   a progress bar over trials;
 * :func:`summarise`, :func:`markdown_table`, :func:`decision_rows`, :func:`plot_metric`,
   :func:`write_report`: the table (mean and std per scene and policy), the CSV of every
-  decision, the plots (one line per policy: the mean over trials, a band of +-1 std).
+  decision, the plots (one line per policy: the mean over trials, a band of +-1 std);
+* :func:`matched_travel`: every policy's map error after the same distance (EM's mean
+  final travel), since policies stop after different distances.
 """
 
 from __future__ import annotations
@@ -252,6 +254,47 @@ def write_csv(path: Path, rows: Sequence[dict]) -> Path:
     return path
 
 
+def value_at_travel(run: dict, metric: str, travel: float) -> float:
+    """``metric`` of one trial after ``travel`` metres: interpolated between its decisions,
+    its final value if it ended sooner (the robot stopped; its map stays as it was)."""
+    if not run["rows"]:
+        return float("nan")
+    distances = [row["travel_m"] for row in run["rows"]]
+    return float(np.interp(travel, distances, [row[metric] for row in run["rows"]]))
+
+
+def matched_travel(runs: Sequence[dict], reference: str = "em", metric: str = "map_error_m") -> list[dict]:
+    """Per scene, every policy's ``metric`` (mean and std over trials) at the ``reference``
+    policy's mean final travel: policies that stop after different distances compared at
+    the same distance. Scenes without the reference policy are left out."""
+    table = []
+    for scene in sorted({r["scene"] for r in runs}):
+        good = [r for r in runs if r["scene"] == scene and r["status"] != "error"]
+        reference_runs = [r for r in good if r["policy"] == reference]
+        if not reference_runs:
+            continue
+        travel = float(np.mean([r["travel_m"] for r in reference_runs]))
+        entry = {"scene": scene, "reference": reference, "travel_m": travel, "metric": metric}
+        for policy in policy_order(r["policy"] for r in good):
+            values = np.array([value_at_travel(r, metric, travel) for r in good if r["policy"] == policy])
+            entry[policy], entry[policy + "_std"] = float(np.nanmean(values)), float(np.nanstd(values))
+        table.append(entry)
+    return table
+
+
+def matched_travel_markdown(table: Sequence[dict]) -> str:
+    """:func:`matched_travel` as a Markdown table (one row per scene)."""
+    if not table:
+        return ""
+    policies = policy_order({key.removesuffix("_std") for entry in table for key in entry if key.endswith("_std")})
+    lines = [f"{table[0]['metric']} of every policy after the {table[0]['reference']} policy's mean final travel:",
+             "", "| scene | travel m | " + " | ".join(policies) + " |", "|" + "---|" * (len(policies) + 2)]
+    for entry in table:
+        cells = [f"{entry[p]:.3f} ± {entry[p + '_std']:.3f}" if p in entry else "n/a" for p in policies]
+        lines.append(f"| {entry['scene']} | {entry['travel_m']:.1f} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 # ---------------------------------------------------------------------- plots
 
 
@@ -308,9 +351,11 @@ def write_summary(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Pat
     """``summary.md``, ``summary.json`` and the plots of every scene of ``runs`` into ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    table = summarise(runs)
-    (out / "summary.md").write_text(markdown_table(table))
+    table, matched = summarise(runs), matched_travel(runs)
+    text = markdown_table(table) + ("\n" + matched_travel_markdown(matched) if matched else "")
+    (out / "summary.md").write_text(text)
     (out / "summary.json").write_text(json.dumps(table, indent=1))
+    (out / "matched_travel.json").write_text(json.dumps(matched, indent=1))
     plots = [p for scene in sorted({r["scene"] for r in runs}) for p in plot_scene(runs, scene, out)]
     return {"table": out / "summary.md", "plots": plots}
 

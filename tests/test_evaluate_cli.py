@@ -98,3 +98,16 @@ def test_mean_curve_holds_each_trials_last_value_up_to_the_median_end():
     travel, mean, std = comparison.mean_curve(runs, "map_error_m", points=5)
     assert travel[0] == 2.0 and travel[-1] == 6.0  # median of the ends 4, 8, 6
     assert mean[-1] == pytest.approx((1.0 + 1.0 + 2.0) / 3)  # trial 0 holds its last value
+
+
+def test_matched_travel_compares_policies_after_the_reference_policys_mean_travel():
+    # em ends at 4 and 8 m (mean 6 m); nearest's trial ends at 4 m and holds its last value
+    runs = [synthetic_run("em", 0, [0.1, 0.2]), synthetic_run("em", 1, [0.1, 0.2, 0.3, 0.4]),
+            synthetic_run("nearest", 0, [0.5, 0.7]), synthetic_run("learned", 0, [0.0, 0.2, 0.4, 0.6])]
+    (entry,) = comparison.matched_travel(runs)
+    assert entry["travel_m"] == pytest.approx(6.0)
+    assert entry["em"] == pytest.approx((0.2 + 0.3) / 2) and entry["em_std"] == pytest.approx(0.05)
+    assert entry["nearest"] == pytest.approx(0.7) and entry["learned"] == pytest.approx(0.4)
+    text = comparison.matched_travel_markdown([entry])
+    assert "| scene | travel m | learned | em | nearest |" in text and "| street | 6.0 | 0.400 ± 0.000 |" in text
+    assert comparison.matched_travel([r for r in runs if r["policy"] != "em"]) == []
