@@ -58,6 +58,15 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> Path:
     return path
 
 
+def load_failure_reason(error: Exception) -> str:
+    """The first line of ``torch.load``'s error, without its advice to load with
+    ``weights_only=False`` (unsafe, and no help for a file that is not ours)."""
+    first_line = str(error).splitlines()[0] if str(error) else ""
+    if first_line.startswith("Weights only load failed"):
+        return "corrupt, or it holds objects other than tensors and plain data"
+    return first_line
+
+
 def read_checkpoint(path: Path, formats: tuple[str, ...] = (FORMAT,),
                     missing_hint: str = "train first, or check the path / out=") -> dict:
     """The raw payload of ``path``; CheckpointError if it is missing or not ours.
@@ -71,7 +80,8 @@ def read_checkpoint(path: Path, formats: tuple[str, ...] = (FORMAT,),
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as error:  # noqa: BLE001 -- any unreadable file gets the same one-line error
         raise CheckpointError(f"{path}: not a readable checkpoint ({type(error).__name__}: "
-                              f"{str(error).splitlines()[0] if str(error) else ''})") from None
+                              f"{load_failure_reason(error)}); check the path, or re-create the file "
+                              "with explore-rl-train / explore-rl-export") from None
     if not isinstance(payload, dict) or payload.get("format") not in formats:
         found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
         expected = repr(formats[0]) if len(formats) == 1 else "one of " + ", ".join(map(repr, formats))
