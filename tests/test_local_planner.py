@@ -240,16 +240,21 @@ def trajectories(scene, make_robot):
     return np.array(poses), np.array(blocked)
 
 
-def test_without_the_layer_paths_are_followed_bit_for_bit_as_before(office):
+def test_without_the_layer_paths_are_followed_as_before(office):
     """``tests/data/robot_follow_before_safety.npz`` holds these trajectories as the robot
     of commit d2fb94a (before the layer) drove them (same helpers, same seeds). Only a
     deliberate change of the unguarded motion model may regenerate it: save ``poses`` and
-    ``blocked`` of this call with ``np.savez_compressed``."""
+    ``blocked`` of this call with ``np.savez_compressed``.
+
+    The stored file was written on another CPU: libm and vectorised numpy kernels may
+    differ in the last bits there (5e-15 m seen), so poses are compared to 1e-9 m, far
+    below any change of the motion model (one motion step's noise is ~1e-2 m)."""
     reference = np.load(REFERENCE)
     poses, blocked = trajectories(
         office, lambda rng: Robot(RobotConfig(), office.start_pose, office.is_free, rng,
                                   clearance=office.footprint_clearance, guard=None))
-    assert np.array_equal(poses, reference["poses"])
+    assert poses.shape == reference["poses"].shape
+    np.testing.assert_allclose(poses, reference["poses"], rtol=0, atol=1e-9)
     assert np.array_equal(blocked, reference["blocked"])
 
 
