@@ -13,7 +13,8 @@ from typing import Optional, Sequence
 
 from hydra.core.config_store import ConfigStore
 
-from explore_rl.comparison import EvaluateConfig
+from explore_rl import checks
+from explore_rl.comparison import POLICIES, EvaluateConfig
 from explore_rl.envs.config import EnvConfig
 from explore_rl.graph.config import GraphConfig
 from explore_rl.mapping.config import MappingConfig
@@ -29,8 +30,10 @@ from explore_rl.tour import TourConfig
 from explore_rl.trainer.config import (
     BACKENDS,
     ESTIMATORS,
-    IMITATION_TARGETS,
+    DISTILL_TARGETS,
     LOGGERS,
+    RENAMED,
+    RENAMED_VALUES,
     AlgoConfig,
     CollectorConfig,
     LoggerConfig,
@@ -45,6 +48,12 @@ class CompareConfig:
     """``explore-rl-compare``: the policies explored one after the other on the same scene."""
 
     policies: list[str] = field(default_factory=lambda: ["nearest", "em"])
+
+    def validate(self) -> None:
+        """Every name known and at least one, before the first policy runs."""
+        unknown = [p for p in self.policies if p not in POLICIES]
+        if unknown or not self.policies:
+            raise ValueError(f"compare.policies={list(self.policies)}: give one or more of {', '.join(POLICIES)}")
 
 
 @dataclass
@@ -100,64 +109,135 @@ def load_saved_config(path: str | Path, overrides: Sequence[str] = ()) -> Config
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{path}: no saved config there")
-    merged = OmegaConf.merge(OmegaConf.structured(Config), OmegaConf.load(path),
-                             OmegaConf.from_dotlist(list(overrides)))
+    saved = OmegaConf.to_container(OmegaConf.load(path))
+    migrate_renamed(saved)
+    merged = OmegaConf.merge(OmegaConf.structured(Config), saved, OmegaConf.from_dotlist(list(overrides)))
     config: Config = OmegaConf.to_object(merged)  # type: ignore[assignment]
     validate(config)
     return config
 
 
+def migrate_renamed(saved: dict) -> None:
+    """A config saved before the objective's options were renamed (``algo.imitation_*``),
+    read with the new names (``RENAMED``): old runs and policy cards stay loadable."""
+    algo = saved.get("algo") or {}
+    for old, new in RENAMED.items():
+        if algo.get(old) is not None:
+            value = algo.pop(old)
+            algo[new] = RENAMED_VALUES.get(old, {}).get(value, value)
+        else:
+            algo.pop(old, None)
+
+
+# procedural scenes whose generators place walls, rooms and starts in metres: the smallest
+# size (x, y) they fit in (scene=file has its own checks, explore_rl/scene/scene_file.py)
+MIN_SCENE_SIZE = {"office": (20.0, 20.0), "street": (10.0, 10.0), "garage": (10.0, 10.0)}
+
+
 def validate(config: Config) -> None:
-    """Checks a type system can't express; raise with the key and the fix."""
-    if config.scene.name == "file" and not config.scene.path:
-        raise ValueError("scene=file needs scene.path=/path/to/scene.yaml")
-    positive = {
-        "robot.radius": config.robot.radius,
-        "robot.speed": config.robot.speed,
-        "robot.step_distance": config.robot.step_distance,
-        "lidar.max_range": config.lidar.max_range,
-        "lidar.azimuth_resolution_deg": config.lidar.azimuth_resolution_deg,
-        "scene.grid_resolution": config.scene.grid_resolution,
-        "mapping.paths.clearance_scale": config.mapping.paths.clearance_scale,
-        "tour.clearance_scale": config.tour.clearance_scale,
-    }
-    for key, value in positive.items():
-        if not value > 0:
-            raise ValueError(f"{key} must be positive, got {value}")
-    non_negative = {  # path costs: negative weights would break Dijkstra
-        "mapping.paths.inflation_margin": config.mapping.paths.inflation_margin,
-        "mapping.paths.clearance_weight": config.mapping.paths.clearance_weight,
-        "tour.inflation_margin": config.tour.inflation_margin,
-        "tour.clearance_weight": config.tour.clearance_weight,
-    }
-    for key, value in non_negative.items():
-        if not value >= 0:
-            raise ValueError(f"{key} must be >= 0, got {value}")
-    if config.slam.frontend not in ("icp", "model"):
-        raise ValueError(f"slam.frontend={config.slam.frontend!r}: choose slam=icp or slam=model")
+    """Checks a type system can't express, before anything runs: raise with the key, the
+    allowed range and the fix (one line). Groups with their own ``validate()`` check themselves."""
+    checks.at_least("seed", config.seed, 0)
+    validate_scene(config)
+    config.robot.validate()
+    config.lidar.validate()
+    config.tour.validate()
+    validate_mapping(config)
+    validate_planning(config)
+    validate_slam(config)
+    validate_explore(config)
     if config.policy.name not in ("nearest", "random", "em", "learned"):
         raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random, em or learned")
-    if not 0 < config.explore.target_explored <= 1:
-        raise ValueError(f"explore.target_explored must be in (0, 1], got {config.explore.target_explored}")
-    if config.lidar.channels < 1:
-        raise ValueError(f"lidar.channels must be >= 1, got {config.lidar.channels}")
-    if config.explore.escape.directions < 2:
-        raise ValueError(f"explore.escape.directions must be >= 2, got {config.explore.escape.directions}")
     if config.env.starts not in ("auto", "cycle", "sample", "default"):
         raise ValueError(f"env.starts={config.env.starts!r}: choose auto, cycle, sample or default")
-    if config.planning.actions.kind not in ("graph", "nearest"):
-        raise ValueError(f"planning.actions.kind={config.planning.actions.kind!r}: choose graph or nearest")
-    if config.planning.actions.max_frontiers < 1:
-        raise ValueError(f"planning.actions.max_frontiers must be >= 1, got {config.planning.actions.max_frontiers}")
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:
         raise ValueError(f"graph.max_nodes={config.graph.max_nodes} must exceed planning.actions.max_frontiers="
                          f"{config.planning.actions.max_frontiers} (the current pose and every frontier are nodes)")
+    config.compare.validate()
     config.model.validate()
     config.evaluate.validate()
     validate_training(config)
-    if config.lidar.tile_size < 0:
-        raise ValueError(f"lidar.tile_size must be >= 0 (0 = cast on the full scene model), "
-                         f"got {config.lidar.tile_size}")
+
+
+def validate_scene(config: Config) -> None:
+    """The scene group (the procedural scenes' sizes; scene files check themselves)."""
+    scene = config.scene
+    if scene.name == "file" and not scene.path:
+        raise ValueError("scene=file needs scene.path=/path/to/scene.yaml")
+    checks.at_least("scene.seed", scene.seed, 0)
+    checks.at_least("scene.start_index", scene.start_index, 0)
+    checks.positive("scene.grid_resolution", scene.grid_resolution)
+    if scene.name in MIN_SCENE_SIZE:
+        checks.finite_pair("scene.size", scene.size)
+        low = MIN_SCENE_SIZE[scene.name]
+        if scene.size[0] < low[0] or scene.size[1] < low[1]:
+            raise ValueError(f"scene.size={list(scene.size)} is too small for scene={scene.name}: "
+                             f"at least [{low[0]:g}, {low[1]:g}] (m)")
+    if scene.name == "garage":
+        rows, car = scene.car_rows_y, scene.car_size
+        if rows and max(rows) + car[1] / 2 > scene.size[1]:
+            raise ValueError(f"scene.car_rows_y={list(rows)} puts cars of length {car[1]} outside the garage's "
+                             f"scene.size[1]={scene.size[1]}: lower the rows or enlarge the garage")
+
+
+def validate_mapping(config: Config) -> None:
+    mapping = config.mapping
+    checks.positive("mapping.occupancy.max_range", mapping.occupancy.max_range)
+    checks.at_least("mapping.occupancy.azimuth_bins", mapping.occupancy.azimuth_bins, 1)
+    checks.positive("mapping.occupancy.ray_step_cells", mapping.occupancy.ray_step_cells)
+    checks.positive("mapping.voxels.voxel_size", mapping.voxels.voxel_size)
+    checks.one_of("mapping.frontiers.neighbourhood", mapping.frontiers.neighbourhood, (4, 8))
+    checks.at_least("mapping.frontiers.min_cluster_cells", mapping.frontiers.min_cluster_cells, 1)
+    checks.positive("mapping.frontiers.max_cluster_extent", mapping.frontiers.max_cluster_extent)
+    checks.non_negative("mapping.frontiers.waypoint_search_radius", mapping.frontiers.waypoint_search_radius)
+    checks.positive("mapping.paths.clearance_scale", mapping.paths.clearance_scale)
+    # path costs: negative weights would break Dijkstra
+    checks.non_negative("mapping.paths.inflation_margin", mapping.paths.inflation_margin)
+    checks.non_negative("mapping.paths.clearance_weight", mapping.paths.clearance_weight)
+    checks.non_negative("mapping.paths.start_snap_radius", mapping.paths.start_snap_radius)
+
+
+def validate_planning(config: Config) -> None:
+    planning = config.planning
+    if planning.actions.kind not in ("graph", "nearest"):
+        raise ValueError(f"planning.actions.kind={planning.actions.kind!r}: choose graph or nearest")
+    checks.at_least("planning.actions.max_frontiers", planning.actions.max_frontiers, 1)
+    checks.at_least("planning.actions.extra_nearest", planning.actions.extra_nearest, 0)
+    virtual_map, resolution = planning.virtual_map, config.scene.grid_resolution
+    checks.positive("planning.virtual_map.cell_size", virtual_map.cell_size)
+    factor = virtual_map.cell_size / resolution
+    if factor < 1 - 1e-9 or abs(factor - round(factor)) > 1e-6:
+        raise ValueError(f"planning.virtual_map.cell_size={virtual_map.cell_size} must be a whole multiple "
+                         f"(1, 2, 3, ...) of scene.grid_resolution={resolution}")
+    for key in ("prior_std", "sigma_range", "sigma_bearing_deg", "sensor_range", "min_range", "los_step_fraction"):
+        checks.positive(f"planning.virtual_map.{key}", getattr(virtual_map, key))
+    for key in ("r_lc", "keyframe_spacing", "los_step_fraction"):
+        checks.positive(f"planning.revisits.{key}", getattr(planning.revisits, key))
+    checks.non_negative("planning.revisits.min_travel_gap", planning.revisits.min_travel_gap)
+    checks.non_negative("planning.reward.alpha", planning.reward.alpha)
+    checks.non_negative("planning.reward.tie_tolerance", planning.reward.tie_tolerance)
+
+
+def validate_slam(config: Config) -> None:
+    slam = config.slam
+    if slam.frontend not in ("icp", "model"):
+        raise ValueError(f"slam.frontend={slam.frontend!r}: choose slam=icp or slam=model")
+    checks.positive("slam.keyframe_distance", slam.keyframe_distance)
+    checks.in_range("slam.keyframe_angle_deg", slam.keyframe_angle_deg, 0.0, 180.0, low_open=True)
+    checks.at_least("slam.map_error_points", slam.map_error_points, 1)
+
+
+def validate_explore(config: Config) -> None:
+    explore = config.explore
+    if not 0 < explore.target_explored <= 1:
+        raise ValueError(f"explore.target_explored must be in (0, 1], got {explore.target_explored}")
+    checks.positive("explore.travel_budget", explore.travel_budget, finite=False)
+    checks.at_least("explore.max_decisions", explore.max_decisions, 1)
+    checks.non_negative("explore.blocked_progress", explore.blocked_progress)
+    checks.non_negative("explore.visited_radius", explore.visited_radius)
+    checks.non_negative("explore.escape.clearance", explore.escape.clearance)
+    checks.at_least("explore.escape.directions", explore.escape.directions, 2)
+    checks.at_least("explore.escape.max_steps", explore.escape.max_steps, 1)
 
 
 def validate_training(config: Config) -> None:
@@ -169,22 +249,27 @@ def validate_training(config: Config) -> None:
             raise ValueError(f"{key} must be positive, got {value}")
     if not algo.gamma <= 1 or not 0 <= algo.lmbda <= 1:
         raise ValueError(f"algo.gamma must be in (0, 1] and algo.lmbda in [0, 1], got {algo.gamma}, {algo.lmbda}")
-    for key in ("value_coef", "entropy_coef", "imitation_coef"):
+    for old, new in RENAMED.items():
+        if getattr(algo, old) is not None:
+            raise ValueError(f"algo.{old} was renamed algo.{new} (distillation of EM's evaluation is not A2C): "
+                             f"use algo.{new}={getattr(algo, old)}")
+    for key in ("a2c_coef", "value_coef", "entropy_coef", "distill_coef"):
         if not getattr(algo, key) >= 0:
             raise ValueError(f"algo.{key} must be >= 0, got {getattr(algo, key)}")
+    if algo.a2c_coef == 0 and algo.distill_coef == 0:
+        raise ValueError("algo.a2c_coef and algo.distill_coef are both 0: nothing would be learned")
     if algo.estimator not in ESTIMATORS:
         raise ValueError(f"algo.estimator={algo.estimator!r}: choose one of {', '.join(ESTIMATORS)}")
     at_least_one = {"algo.steps_per_update": algo.steps_per_update, "collector.workers": collector.workers,
                     "train.frames": train.frames, "train.checkpoint_every": train.checkpoint_every,
-                    "train.threads": train.threads, "algo.imitation_batch": algo.imitation_batch,
-                    "algo.imitation_buffer": algo.imitation_buffer}
-    if algo.imitation_target not in IMITATION_TARGETS:
-        raise ValueError(f"algo.imitation_target={algo.imitation_target!r}: choose one of "
-                         f"{', '.join(IMITATION_TARGETS)}")
-    if algo.imitation_replay_steps < 0:
-        raise ValueError(f"algo.imitation_replay_steps must be >= 0 (0 = no replay), got {algo.imitation_replay_steps}")
-    if algo.imitation_replay_steps > 0 and algo.imitation_coef == 0:
-        raise ValueError("algo.imitation_replay_steps > 0 needs algo.imitation_coef > 0 (the weight of those steps)")
+                    "train.threads": train.threads, "algo.dagger_batch": algo.dagger_batch,
+                    "algo.dagger_buffer": algo.dagger_buffer}
+    if algo.distill_target not in DISTILL_TARGETS:
+        raise ValueError(f"algo.distill_target={algo.distill_target!r}: choose one of {', '.join(DISTILL_TARGETS)}")
+    if algo.dagger_steps < 0:
+        raise ValueError(f"algo.dagger_steps must be >= 0 (0 = no replay), got {algo.dagger_steps}")
+    if algo.dagger_steps > 0 and algo.distill_coef == 0:
+        raise ValueError("algo.dagger_steps > 0 needs algo.distill_coef > 0 (the weight of those steps)")
     if train.snapshot_every < 0:
         raise ValueError(f"train.snapshot_every must be >= 0 (0 = no snapshots), got {train.snapshot_every}")
     for key, value in at_least_one.items():

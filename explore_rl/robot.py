@@ -28,14 +28,19 @@ and translates until the clearance reaches :attr:`EscapeConfig.clearance`.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Callable, Iterator
 
 import numpy as np
 
+from explore_rl import checks
 from explore_rl.geometry import se2_compose, wrap_angle
 from explore_rl.local_planner import SafetyConfig
+from explore_rl.local_planner import validate as validate_safety
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -53,8 +58,31 @@ class RobotConfig:
     # turn in place first when the heading error to the next waypoint exceeds this
     heading_tolerance_deg: float = 10.0
     waypoint_tolerance: float = 0.05
+    # Step cap of one path (Robot.follow): a path that has not ended after path_step_factor
+    # times the motion steps it needs (its length / step_distance plus a half turn per
+    # waypoint / step_angle_deg) plus path_step_slack steps ends blocked, and the log says why
+    # -- whatever the settings or the situation, following a path cannot loop forever.
+    path_step_factor: float = 10.0
+    path_step_slack: int = 100
     # the local safety layer on the live scan (explore_rl/local_planner.py); enabled=false: off
     safety: SafetyConfig = field(default_factory=SafetyConfig)
+
+    def validate(self) -> None:
+        """Values path following can work with (a zero tolerance or turn step never ends a
+        waypoint; a negative or NaN noise breaks the motion model); one line per bad key."""
+        for key in ("radius", "speed", "turn_rate_deg", "step_distance", "waypoint_tolerance", "path_step_factor"):
+            checks.positive(f"robot.{key}", getattr(self, key))
+        checks.in_range("robot.step_angle_deg", self.step_angle_deg, 0.0, 180.0, low_open=True)
+        checks.in_range("robot.heading_tolerance_deg", self.heading_tolerance_deg, 0.0, 180.0, low_open=True)
+        for key in ("noise_xy", "noise_yaw_deg"):
+            checks.non_negative(f"robot.{key}", getattr(self, key))
+        checks.at_least("robot.path_step_slack", self.path_step_slack, 0)
+        if len(self.body_size) != 3:
+            raise ValueError(f"robot.body_size must be three positive sizes [x, y, z] (m), got {self.body_size}")
+        for i, size in enumerate(self.body_size):
+            checks.positive(f"robot.body_size[{i}]", size)
+        if self.safety.enabled:
+            validate_safety(self.safety)
 
 
 @dataclass
@@ -121,6 +149,7 @@ class Robot:
         # an obstacle (not taken), and the least true footprint clearance of the steps taken
         self.contacts = 0
         self.min_clearance = float("inf")
+        self.capped_paths = 0  # paths ended by the step cap (RobotConfig.path_step_factor)
 
     def correct_belief(self, pose: np.ndarray) -> None:
         """Replace the belief pose (e.g. by the SLAM estimate of the current keyframe)."""
@@ -131,10 +160,12 @@ class Robot:
 
         Sets ``self.status`` to ``reached`` or ``blocked`` when the generator ends. With a
         ``guard`` every step is first adjusted by it (it may also end the waypoint, or give
-        up on the path: ``blocked``).
+        up on the path: ``blocked``). After :meth:`step_cap` motion steps the path ends
+        ``blocked`` and a warning says why.
         """
         self.status = PathStatus.REACHED
         waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
+        cap, steps = self.step_cap(waypoints), 0
         for index, target in enumerate(waypoints):
             if self.guard is not None:
                 self.guard.begin(target, final=index == len(waypoints) - 1)
@@ -147,11 +178,30 @@ class Robot:
                         return
                 if command is None:
                     break
+                if steps >= cap:
+                    self.capped_paths += 1
+                    self.status = PathStatus.BLOCKED
+                    log.warning("path ended as blocked: %d motion steps without reaching waypoint %d of %d "
+                                "(%.2f m away; cap %d from robot.path_step_factor and path_step_slack); "
+                                "check robot.waypoint_tolerance, step_distance, step_angle_deg", steps,
+                                index + 1, len(waypoints), float(np.hypot(*(target - self.belief_pose[:2]))), cap)
+                    return
                 step = self.execute(command)
                 if step is None:
                     self.status = PathStatus.BLOCKED
                     return
+                steps += 1
                 yield step
+
+    def step_cap(self, waypoints: np.ndarray) -> int:
+        """Motion steps a path through ``waypoints (K, 2)`` may take: ``path_step_factor``
+        times the steps it needs from the belief pose (length / ``step_distance`` plus a
+        half turn per waypoint / ``step_angle_deg``) plus ``path_step_slack``."""
+        cfg = self.config
+        points = np.vstack([self.belief_pose[:2], np.asarray(waypoints, dtype=float).reshape(-1, 2)])
+        length = float(np.hypot(*np.diff(points, axis=0).T).sum())
+        needed = length / cfg.step_distance + (len(points) - 1) * 180.0 / cfg.step_angle_deg
+        return int(np.ceil(cfg.path_step_factor * needed)) + int(cfg.path_step_slack)
 
     def next_command(self, target: np.ndarray) -> np.ndarray | None:
         """The body-frame motion of the next step towards ``target``; None once there."""

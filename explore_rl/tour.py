@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from explore_rl import checks
 from explore_rl.mapping.config import PathConfig
 from explore_rl.mapping.paths import PathPlanner, simplify_path, traversability
 from explore_rl.robot import PathStatus, Robot
@@ -28,6 +29,15 @@ class TourConfig:
     # tours stay the same trajectories when the exploration defaults change.
     clearance_weight: float = 1.0
     clearance_scale: float = 0.3
+
+    def validate(self) -> None:
+        """Tour settings that can be planned; one line naming the key and the allowed range."""
+        checks.at_least("tour.start_index", self.start_index, 0)
+        for i, goal in enumerate(self.goals):
+            checks.finite_pair(f"tour.goals[{i}]", goal, positive_entries=False)
+        checks.non_negative("tour.inflation_margin", self.inflation_margin)
+        checks.non_negative("tour.clearance_weight", self.clearance_weight)
+        checks.positive("tour.clearance_scale", self.clearance_scale)
 
 
 def tour_paths(config) -> PathConfig:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from explore_rl import checks
 from explore_rl.scene.build import ROBOT_GEOM_GROUP, Scene
 
 
@@ -34,6 +35,22 @@ class LidarConfig:
     # Side (m) of the square tiles of StaticTiles; 0 casts on the full scene model. Same
     # hits either way; 3 m tiles made mj_multiRay ~20-30 % faster (benchmarks/bench_lidar.py).
     tile_size: float = 3.0
+
+    def validate(self) -> None:
+        """A scan pattern that can be cast: one line naming the key and the allowed range."""
+        checks.at_least("lidar.channels", self.channels, 1)
+        for key in ("min_elevation_deg", "max_elevation_deg"):
+            checks.in_range(f"lidar.{key}", getattr(self, key), -90.0, 90.0)
+        if not self.min_elevation_deg <= self.max_elevation_deg:
+            raise ValueError(f"lidar.min_elevation_deg={self.min_elevation_deg} must not exceed "
+                             f"lidar.max_elevation_deg={self.max_elevation_deg}")
+        checks.in_range("lidar.azimuth_resolution_deg", self.azimuth_resolution_deg, 0.0, 360.0, low_open=True)
+        checks.positive("lidar.max_range", self.max_range)
+        checks.in_range("lidar.min_range", self.min_range, 0.0, self.max_range, high_open=True)
+        checks.non_negative("lidar.range_noise", self.range_noise)
+        checks.positive("lidar.mount_height", self.mount_height)
+        if not (self.tile_size >= 0 and np.isfinite(self.tile_size)):
+            raise ValueError(f"lidar.tile_size must be >= 0 (0 = cast on the full scene model), got {self.tile_size}")
 
 
 @dataclass
