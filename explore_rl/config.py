@@ -23,7 +23,7 @@ from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.robot import RobotConfig
 from explore_rl.runner import ExploreConfig
-from explore_rl.scene.config import SceneConfig
+from explore_rl.scene.config import SceneConfig, validate_building
 from explore_rl.sensors.lidar import LidarConfig
 from explore_rl.slam.config import SlamConfig
 from explore_rl.tour import TourConfig
@@ -167,6 +167,8 @@ def validate_scene(config: Config) -> None:
     checks.at_least("scene.seed", scene.seed, 0)
     checks.at_least("scene.start_index", scene.start_index, 0)
     checks.positive("scene.grid_resolution", scene.grid_resolution)
+    if scene.name == "building":
+        validate_building(scene.building, config.robot.radius, scene.wall_thickness)
     if scene.name in MIN_SCENE_SIZE:
         checks.finite_pair("scene.size", scene.size)
         low = MIN_SCENE_SIZE[scene.name]

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from explore_rl.grid import GridSpec
+from explore_rl.scene.building import building_layout
 from explore_rl.scene.config import SceneConfig
 from explore_rl.scene.layout import Box, Geometry2D, Layout
 from explore_rl.scene.procedural import GENERATORS
@@ -40,8 +41,10 @@ def make_layout(config: SceneConfig, robot_radius: float) -> Layout:
         if not config.path:
             raise ValueError("scene=file needs a path: add scene.path=/path/to/scene.yaml")
         return load_scene_file(config.path, robot_radius=robot_radius)
+    if config.name == "building":  # the one generator that checks connectivity for the footprint
+        return building_layout(config, robot_radius)
     if config.name not in GENERATORS:
-        choices = ", ".join([*GENERATORS, "file"])
+        choices = ", ".join([*GENERATORS, "building", "file"])
         raise ValueError(f"unknown scene.name={config.name!r}; choose one of: {choices}")
     return GENERATORS[config.name](config)
 

@@ -162,6 +162,22 @@ class Geometry2D:
         inside = np.minimum(np.maximum(qx, qy), 0)
         return outside + inside
 
+    def subset(self, rects: np.ndarray | slice, discs: np.ndarray | slice) -> "Geometry2D":
+        """The solids ``rects`` (indices of rectangles) and ``discs`` (of discs) only."""
+        return Geometry2D(self.rect_centers[rects], self.rect_half[rects], self.rect_yaw[rects],
+                          self.rect_height[rects], self.disc_centers[discs], self.disc_radius[discs],
+                          self.disc_height[discs])
+
+    def bounds(self) -> np.ndarray:
+        """Axis-aligned bounding box ``[xmin, ymin, xmax, ymax]`` of every solid: rectangles
+        first, then discs, shape (R + D, 4)."""
+        c, s = np.abs(np.cos(self.rect_yaw)), np.abs(np.sin(self.rect_yaw))
+        half = np.stack([c * self.rect_half[:, 0] + s * self.rect_half[:, 1],
+                         s * self.rect_half[:, 0] + c * self.rect_half[:, 1]], axis=1)
+        half = np.concatenate([half, np.repeat(self.disc_radius[:, None], 2, axis=1)])
+        centers = np.concatenate([self.rect_centers, self.disc_centers])
+        return np.concatenate([centers - half, centers + half], axis=1)
+
     def occupied_cells(self, grid: GridSpec, inflate: float = 0.0) -> np.ndarray:
         """Boolean ``[iy, ix]`` mask of cells whose centre lies within ``inflate`` of a solid."""
         return self.signed_distance(grid.cell_centers()) <= inflate

@@ -62,10 +62,36 @@ def clearance(layout: Layout, grid: GridSpec) -> np.ndarray:
 
 
 def free_masks(layout: Layout, grid: GridSpec, robot_radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(free, traversable)``: cells not in a solid, and cells the footprint disc fits in."""
+    """``(free, traversable)``: cells not in a solid, and cells the footprint disc fits in.
+
+    Same masks as thresholding :func:`clearance` (the reference, tested equal), but each
+    solid is evaluated only on the cells of its bounding box grown by ``robot_radius``
+    (farther cells are beyond both thresholds): ~100x faster on a 35 m building.
+    """
     _check_radius(robot_radius)
-    dist = clearance(layout, grid)
-    return dist > 0.0, dist > robot_radius
+    centers = grid.cell_centers()
+    boundary = _boundary_distance(layout, centers)
+    free, traversable = boundary > 0.0, boundary > robot_radius
+    geometry = layout.geometry()
+    rects = len(geometry.rect_centers)
+    for index, (xmin, ymin, xmax, ymax) in enumerate(geometry.bounds()):
+        rows = _index_window(ymin - robot_radius, ymax + robot_radius, grid.origin[1], grid.resolution, grid.ny)
+        cols = _index_window(xmin - robot_radius, xmax + robot_radius, grid.origin[0], grid.resolution, grid.nx)
+        if rows.start >= rows.stop or cols.start >= cols.stop:
+            continue
+        solid = (geometry.subset(slice(index, index + 1), slice(0, 0)) if index < rects
+                 else geometry.subset(slice(0, 0), slice(index - rects, index - rects + 1)))
+        dist = solid.signed_distance(centers[rows, cols])
+        free[rows, cols] &= dist > 0.0
+        traversable[rows, cols] &= dist > robot_radius
+    return free, traversable
+
+
+def _index_window(low: float, high: float, origin: float, resolution: float, count: int) -> slice:
+    """Indices of the cells whose centre may lie in ``[low, high]`` (one spare cell each side)."""
+    first = int(np.floor((low - origin) / resolution - 0.5)) - 1
+    last = int(np.ceil((high - origin) / resolution - 0.5)) + 2
+    return slice(max(first, 0), min(last, count))
 
 
 def free_space(
