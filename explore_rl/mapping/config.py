@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+MAP_UPDATES = ("incremental", "rebuild")  # mapping.updates
+
 
 @dataclass
 class OccupancyConfig:
@@ -70,6 +72,11 @@ class PathConfig:
 class MappingConfig:
     """The ``mapping`` config group: one section per module."""
 
+    # How the SLAM session keeps its maps in step when loop closures move poses:
+    # "incremental" re-projects only the keyframes whose pose moved by more than a cell
+    # (counted 3D voxels, kept 2D beam cells); "rebuild" is the reference: every keyframe
+    # again whenever any moved (slow; equivalence tests and benchmarks/bench_drive.py).
+    updates: str = "incremental"
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
     voxels: VoxelConfig = field(default_factory=VoxelConfig)
     frontiers: FrontierConfig = field(default_factory=FrontierConfig)

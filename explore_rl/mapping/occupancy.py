@@ -5,7 +5,9 @@ points near the floor are free-space evidence, points in the obstacle height ban
 obstacles, points above are ignored. The 2D scans are integrated into a log-odds grid
 (:class:`OccupancyGrid`) by sampling every beam at sub-cell steps; each cell is updated
 at most once per scan. Keyframes keep their :class:`Scan2D` so the grid can be rebuilt
-when loop closures move the poses (:func:`needs_rebuild`, :meth:`OccupancyGrid.rebuild`).
+when loop closures move the poses (:func:`needs_rebuild`, :meth:`OccupancyGrid.rebuild`),
+or keep the cells each scan was traced into, so that only the scans whose pose moved by
+more than a cell are traced again (:func:`moved_poses`, :meth:`OccupancyGrid.replay`).
 """
 
 from __future__ import annotations
@@ -152,12 +154,29 @@ class OccupancyGrid:
 
     def integrate(self, scan: Scan2D, pose_se2: np.ndarray) -> None:
         """Add one 2D scan taken at the sensor's planar pose ``[x, y, yaw]``."""
-        free, occupied = self.beam_cells(scan, pose_se2)
+        self.integrate_cells(*self.beam_cells(scan, pose_se2))
+
+    def integrate_cells(self, free: np.ndarray, occupied: np.ndarray) -> None:
+        """Add one scan given as its :meth:`beam_cells` (flat indices, disjoint): the log-odds
+        step of :meth:`integrate` without the ray tracing, for callers that keep the cells."""
         flat = self.log_odds.reshape(-1)
         flat[free] += self.config.log_odds_free
         flat[occupied] += self.config.log_odds_occupied
         touched = np.concatenate([free, occupied])
         flat[touched] = np.clip(flat[touched], self.config.log_odds_min, self.config.log_odds_max)
+
+    def replay(self, cells: Sequence[tuple[np.ndarray, np.ndarray]]) -> None:
+        """Clear the grid and integrate every scan's kept cells in order.
+
+        The same float operations in the same order as :meth:`rebuild` on the scans at the
+        poses those cells were traced at, so the grid is identical. Updates clamp after
+        every scan, which makes the grid depend on the order of the scans: a scan cannot be
+        subtracted out again, but replaying kept cells costs ~0.03 ms per scan against
+        ~0.6 ms for tracing it.
+        """
+        self.reset()
+        for free, occupied in cells:
+            self.integrate_cells(free, occupied)
 
     def rebuild(self, scans: Sequence[Scan2D], poses: np.ndarray) -> None:
         """Clear the grid and re-integrate every scan at its (possibly corrected) pose."""
@@ -171,6 +190,10 @@ class OccupancyGrid:
     def needs_rebuild(self, old_poses: np.ndarray, new_poses: np.ndarray) -> bool:
         """:func:`needs_rebuild` with this grid's resolution and range."""
         return needs_rebuild(old_poses, new_poses, self.grid.resolution, self.config.max_range)
+
+    def moved_poses(self, old_poses: np.ndarray, new_poses: np.ndarray) -> np.ndarray:
+        """:func:`moved_poses` with this grid's resolution and range."""
+        return moved_poses(old_poses, new_poses, self.grid.resolution, self.config.max_range)
 
     # --- ray tracing ---------------------------------------------------------------
     def beam_cells(self, scan: Scan2D, pose_se2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -212,19 +235,24 @@ class OccupancyGrid:
         return mask
 
 
-def needs_rebuild(
+def moved_poses(
     old_poses: np.ndarray, new_poses: np.ndarray, resolution: float, max_range: float
-) -> bool:
-    """True if any pose present in both moved more than one cell, or turned enough to
-    move a beam end at ``max_range`` by more than one cell (``resolution / max_range`` rad)."""
+) -> np.ndarray:
+    """Indices of the poses present in both that moved more than one cell, or turned enough
+    to move a beam end at ``max_range`` by more than one cell (``resolution / max_range`` rad)."""
     old = np.asarray(old_poses, dtype=float).reshape(-1, 3)
     new = np.asarray(new_poses, dtype=float).reshape(-1, 3)
     k = min(len(old), len(new))
-    if k == 0:
-        return False
     shift = np.linalg.norm(new[:k, :2] - old[:k, :2], axis=1)
     turn = np.abs(wrap_angle(new[:k, 2] - old[:k, 2]))
-    return bool(np.any(shift > resolution) or np.any(turn > resolution / max_range))
+    return np.flatnonzero((shift > resolution) | (turn > resolution / max_range))
+
+
+def needs_rebuild(
+    old_poses: np.ndarray, new_poses: np.ndarray, resolution: float, max_range: float
+) -> bool:
+    """True if any pose present in both moved by more than a cell (:func:`moved_poses`)."""
+    return bool(len(moved_poses(old_poses, new_poses, resolution, max_range)))
 
 
 def explored_fraction(occupancy: OccupancyGrid, truth_free: np.ndarray) -> float:

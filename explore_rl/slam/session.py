@@ -4,8 +4,14 @@ Feed it the robot's motion steps; every ``keyframe_distance`` metres or
 ``keyframe_angle_deg`` of odometry it takes a keyframe: a LiDAR scan at the *true* pose,
 a sequential scan-matching factor from the front end (seeded with the wheel-odometry
 delta), an odometry factor, one iSAM2 update, then the 2D occupancy grid and the 3D
-voxel map at the *estimated* poses (re-projected when estimates move by more than a
-cell). Metrics follow DESIGN.md: map error, ATE, 3D volume, explored %, degenerate scans.
+voxel map at the *estimated* poses. When loop closures move estimates by more than a
+cell the maps follow: with ``mapping.updates=incremental`` only the keyframes that moved
+so far are re-projected (their voxel counts taken out and put back, their 2D beams traced
+again, the kept beam cells of all keyframes replayed: the grid clamps after each scan, so
+a scan cannot be subtracted); with ``rebuild`` (the reference) every keyframe is
+re-projected whenever any moved. Both give the maps :func:`reference_maps` builds from
+scratch at :attr:`SlamSession.map_poses`. Metrics follow DESIGN.md: map error, ATE, 3D
+volume, explored %, degenerate scans.
 
 Poses in the graph are the robot base at z = 0; the sensor sits ``mount_height`` above it.
 A pure-z mount offset commutes with planar motion, so sensor-frame and base-frame deltas
@@ -26,7 +32,7 @@ from kiss_icp.voxelization import voxel_down_sample
 from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix, transform_points
 from explore_rl.mapping.config import MappingConfig
 from explore_rl.mapping.occupancy import OccupancyGrid, Scan2D, collapse_scan, explored_fraction
-from explore_rl.mapping.voxels import VoxelMap
+from explore_rl.mapping.voxels import VoxelCounts, VoxelMap
 from explore_rl.robot import MotionStep
 from explore_rl.scene.build import Scene
 from explore_rl.sensors.lidar import Lidar
@@ -140,6 +146,18 @@ def map_error(world_from_sensor_est: np.ndarray, world_from_sensor_true: np.ndar
     return float(np.mean(per_keyframe)) if per_keyframe else 0.0
 
 
+def reference_maps(session: "SlamSession") -> tuple[OccupancyGrid, VoxelMap]:
+    """Both maps built from scratch by the reference code (:meth:`OccupancyGrid.rebuild`,
+    :meth:`VoxelMap.rebuild`) at the session's map poses: what either update mode must
+    equal (tests, ``benchmarks/bench_drive.py``)."""
+    poses = session.map_poses
+    occupancy = OccupancyGrid(session.scene.grid, session.mapping.occupancy)
+    occupancy.rebuild([k.scan2d for k in session.keyframes], poses)
+    voxels = VoxelMap(session.mapping.voxels)
+    voxels.rebuild([k.cloud for k in session.keyframes], list(session.world_from_sensor(poses)))
+    return occupancy, voxels
+
+
 def absolute_trajectory_error(estimated: np.ndarray, true: np.ndarray) -> float:
     """RMSE of keyframe positions (no alignment: the graph's prior is the true start)."""
     return float(np.sqrt(np.mean(np.sum((estimated[:, :2] - true[:, :2]) ** 2, axis=1))))
@@ -159,7 +177,9 @@ class SlamSession:
         self.frontend = make_frontend(config)
         self.loop_closer = make_loop_closer(config)
         self.occupancy = OccupancyGrid(scene.grid, mapping.occupancy)
-        self.voxels = VoxelMap(mapping.voxels)
+        self.incremental = mapping.updates == "incremental"
+        self.voxels: VoxelCounts | VoxelMap = (VoxelCounts if self.incremental else VoxelMap)(mapping.voxels)
+        self._cells: list[tuple[np.ndarray, np.ndarray]] = []  # per keyframe, at its map pose (incremental)
         self.keyframes: list[Keyframe] = []
         self.timer = StageTimer()
         self._map_poses = np.zeros((0, 3))
@@ -218,27 +238,60 @@ class SlamSession:
         return np.array([se2_to_matrix(p, h) for p in poses_se2])
 
     def update_maps(self) -> None:
-        """Integrate the newest keyframe, or rebuild both maps if estimates moved enough."""
+        """Integrate the newest keyframe after moving the maps along with estimates that
+        moved by more than a cell (see the module docstring)."""
         estimates = self.graph.poses_se2()
-        if self.occupancy.needs_rebuild(self._map_poses, estimates):
-            self.rebuild_maps(estimates)
-            return
-        keyframe = self.keyframes[-1]
-        self.occupancy.integrate(keyframe.scan2d, estimates[-1])
-        self.voxels.insert(transform_points(self.world_from_sensor(estimates[-1:])[0], keyframe.cloud))
+        if not self.incremental:
+            if self.occupancy.needs_rebuild(self._map_poses, estimates):
+                self.rebuild_maps(estimates)
+                return
+            keyframe = self.keyframes[-1]
+            self.occupancy.integrate(keyframe.scan2d, estimates[-1])
+        else:
+            moved = self.occupancy.moved_poses(self._map_poses, estimates)
+            if len(moved):
+                self.correct_maps(moved, estimates)
+            keyframe = self.keyframes[-1]
+            self._cells.append(self._trace(keyframe, estimates[-1]))
+            self.occupancy.integrate_cells(*self._cells[-1])
+        self.voxels.insert(self._cloud_world(keyframe, estimates[-1]))
         self._map_poses = np.vstack([self._map_poses, estimates[-1:]])
+
+    def correct_maps(self, moved: np.ndarray, estimates: np.ndarray) -> None:
+        """Re-project keyframes ``moved`` at ``estimates`` (``mapping.updates=incremental``)."""
+        with self.timer("map_corrections"):
+            for i in moved:
+                keyframe = self.keyframes[i]
+                self.voxels.remove(self._cloud_world(keyframe, self._map_poses[i]))
+                self.voxels.insert(self._cloud_world(keyframe, estimates[i]))
+                self._cells[i] = self._trace(keyframe, estimates[i])
+                self._map_poses[i] = estimates[i]
+            self.occupancy.replay(self._cells)
+
+    def _trace(self, keyframe: Keyframe, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A keyframe's 2D beam cells at a planar pose, kept as int32 (half the memory)."""
+        free, occupied = self.occupancy.beam_cells(keyframe.scan2d, pose)
+        return free.astype(np.int32), occupied.astype(np.int32)
+
+    def _cloud_world(self, keyframe: Keyframe, pose: np.ndarray) -> np.ndarray:
+        return transform_points(self.world_from_sensor(pose[None])[0], keyframe.cloud)
 
     @property
     def map_poses(self) -> np.ndarray:
-        """``(N, 3)`` planar estimates the maps were last built at: within a map cell of the
-        current estimates (the maps are rebuilt when any moves further)."""
+        """``(N, 3)`` planar estimates the maps were last built at: each within a map cell
+        of its current estimate (a keyframe is re-projected when it moves further)."""
         return self._map_poses
 
     def rebuild_maps(self, estimates: np.ndarray | None = None) -> None:
+        """Re-project every keyframe at ``estimates`` (default: the current ones)."""
         estimates = self.graph.poses_se2() if estimates is None else estimates
-        self.occupancy.rebuild([k.scan2d for k in self.keyframes], estimates)
+        if self.incremental:
+            self._cells = [self._trace(k, pose) for k, pose in zip(self.keyframes, estimates)]
+            self.occupancy.replay(self._cells)
+        else:
+            self.occupancy.rebuild([k.scan2d for k in self.keyframes], estimates)
         self.voxels.rebuild([k.cloud for k in self.keyframes], list(self.world_from_sensor(estimates)))
-        self._map_poses = estimates.copy()
+        self._map_poses = np.array(estimates, dtype=float).copy()
 
     # ------------------------------------------------------------------ metrics
 

@@ -15,6 +15,7 @@ from explore_rl.mapping.occupancy import (
     Scan2D,
     collapse_scan,
     explored_fraction,
+    moved_poses,
     needs_rebuild,
 )
 from explore_rl.sensors.lidar import Lidar, LidarConfig
@@ -258,3 +259,49 @@ def test_occupied_at_reads_known_occupied_and_treats_outside_as_free():
     expected[inside] = occupancy.known_occupied[cells[..., 0][inside], cells[..., 1][inside]]
     np.testing.assert_array_equal(occupancy.occupied_at(cells), expected)
     assert expected.any() and (~expected & inside).any()
+
+
+# --- kept beam cells: replay instead of re-tracing (mapping.updates=incremental) -----------
+
+
+def test_integrate_cells_of_beam_cells_equals_integrate():
+    scan, pose = room_scan(np.array([3.0, 3.0])), np.array([3.0, 3.0, 0.3])
+    direct, via_cells = OccupancyGrid(GRID), OccupancyGrid(GRID)
+    direct.integrate(scan, pose)
+    via_cells.integrate_cells(*via_cells.beam_cells(scan, pose))
+    assert direct.known_free.sum() > 100  # the scan did something
+    np.testing.assert_allclose(via_cells.log_odds, direct.log_odds, rtol=0, atol=1e-9)
+
+
+def test_replay_of_kept_cells_equals_rebuild_including_the_clamp():
+    """Many overlapping scans (the clamp engages, so order matters) and one moved scan:
+    replaying the kept cells, with only the moved scan traced again, equals the reference
+    rebuild at the new poses."""
+    rng = np.random.default_rng(4)
+    centres = rng.uniform(1.5, 4.5, size=(25, 2))
+    scans = [room_scan(c) for c in centres]
+    poses = np.column_stack([centres, np.zeros(len(centres))])
+    occupancy = OccupancyGrid(GRID)
+    cells = [occupancy.beam_cells(s, p) for s, p in zip(scans, poses)]
+    moved = poses.copy()
+    moved[7] += [0.35, -0.2, 0.0]
+    cells[7] = occupancy.beam_cells(scans[7], moved[7])
+    occupancy.replay(cells)
+    reference = OccupancyGrid(GRID)
+    reference.rebuild(scans, moved)
+    assert reference.log_odds.min() == pytest.approx(CONFIG.log_odds_min)  # clamped cells exist
+    np.testing.assert_allclose(occupancy.log_odds, reference.log_odds, rtol=0, atol=1e-9)
+    stale = OccupancyGrid(GRID)
+    stale.rebuild(scans, poses)
+    assert np.abs(stale.log_odds - reference.log_odds).max() > 0.5  # the move changed the map
+
+
+def test_moved_poses_names_the_poses_needs_rebuild_reacts_to():
+    res, max_range = 0.1, 3.0
+    old = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.5], [2.0, 0.0, 0.0], [3.0, 0.0, np.pi - 0.01]])
+    new = old + [[0.05, 0.05, 0.0], [0.08, 0.08, 0.0], [0.0, 0.0, 0.04], [0.0, 0.0, 0.02]]
+    np.testing.assert_array_equal(moved_poses(old, new, res, max_range), [1, 2])
+    assert needs_rebuild(old, new, res, max_range)
+    assert not needs_rebuild(old[[0, 3]], new[[0, 3]], res, max_range)
+    # new keyframes (beyond the old ones) are never "moved"
+    assert len(moved_poses(old[:2], new, res, max_range)) == 1

@@ -5,7 +5,7 @@ import pytest
 
 from explore_rl.geometry import se2_to_matrix
 from explore_rl.mapping.config import VoxelConfig
-from explore_rl.mapping.voxels import VoxelMap, pack_keys, unpack_keys
+from explore_rl.mapping.voxels import VoxelCounts, VoxelMap, pack_keys, unpack_keys
 
 
 def plane_cloud(step: float = 0.01) -> np.ndarray:
@@ -77,3 +77,49 @@ def test_incremental_inserts_keep_keys_sorted_unique_and_equal_to_union1d():
         voxels.insert(cloud)
         reference = np.union1d(reference, pack_keys(np.floor(cloud / 0.1).astype(np.int64)))
         np.testing.assert_array_equal(voxels.keys, reference)
+
+
+# --- VoxelCounts (mapping.updates=incremental) against the sorted-key reference ------------
+
+
+def test_counts_match_the_reference_and_removal_is_exact():
+    rng = np.random.default_rng(11)
+    clouds = [rng.normal(rng.uniform(-3.0, 3.0, 3), 0.6, size=(400, 3)) for _ in range(12)]
+    counts, reference = VoxelCounts(VoxelConfig(voxel_size=0.1)), VoxelMap(VoxelConfig(voxel_size=0.1))
+    for cloud in clouds:  # the box grows in every direction, negative keys included
+        counts.insert(cloud)
+        reference.insert(cloud)
+        np.testing.assert_array_equal(counts.keys, reference.keys)
+        assert counts.occupied_count == reference.occupied_count
+    # take three clouds out again: the map of the other nine
+    for i in (2, 5, 11):
+        counts.remove(clouds[i])
+    rest = VoxelMap(VoxelConfig(voxel_size=0.1))
+    rest.insert(np.concatenate([c for i, c in enumerate(clouds) if i not in (2, 5, 11)]))
+    assert rest.occupied_count < reference.occupied_count
+    np.testing.assert_array_equal(counts.keys, rest.keys)
+    assert counts.occupied_volume() == pytest.approx(rest.occupied_volume(), rel=1e-12)
+    np.testing.assert_allclose(counts.points(), rest.points(), rtol=0, atol=1e-9)
+
+
+def test_counts_skip_non_finite_points_and_refuse_removing_what_was_never_inserted():
+    counts = VoxelCounts()
+    counts.insert(np.array([[0.05, 0.05, 0.05], [np.nan, 0.0, 0.0], [0.0, np.inf, 0.0]]))
+    assert counts.occupied_count == 1
+    with pytest.raises(ValueError, match="never inserted"):
+        counts.remove(np.array([[0.25, 0.05, 0.05]]))
+    with pytest.raises(ValueError, match="outside"):
+        counts.remove(np.array([[50.0, 0.05, 0.05]]))
+    counts.remove(np.array([[0.05, 0.05, 0.05]]))
+    assert counts.occupied_count == 0
+
+
+def test_counts_rebuild_equals_the_reference_rebuild():
+    rng = np.random.default_rng(5)
+    clouds = [rng.uniform(-1.0, 1.0, size=(300, 3)) for _ in range(4)]
+    transforms = [se2_to_matrix(rng.uniform(-5, 5, 3), z=0.4) for _ in clouds]
+    counts, reference = VoxelCounts(), VoxelMap()
+    counts.insert(rng.uniform(10, 11, size=(50, 3)))  # stale content: cleared by the rebuild
+    counts.rebuild(clouds, transforms)
+    reference.rebuild(clouds, transforms)
+    np.testing.assert_array_equal(counts.keys, reference.keys)
