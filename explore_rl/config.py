@@ -17,7 +17,7 @@ from explore_rl import checks
 from explore_rl.comparison import POLICIES, EvaluateConfig
 from explore_rl.envs.config import EnvConfig
 from explore_rl.graph.config import GraphConfig
-from explore_rl.mapping.config import MappingConfig
+from explore_rl.mapping.config import MAP_UPDATES, MappingConfig
 from explore_rl.models.config import ModelConfig
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.policies import PolicyConfig
@@ -184,6 +184,7 @@ def validate_scene(config: Config) -> None:
 
 def validate_mapping(config: Config) -> None:
     mapping = config.mapping
+    checks.one_of("mapping.updates", mapping.updates, MAP_UPDATES)
     checks.positive("mapping.occupancy.max_range", mapping.occupancy.max_range)
     checks.at_least("mapping.occupancy.azimuth_bins", mapping.occupancy.azimuth_bins, 1)
     checks.positive("mapping.occupancy.ray_step_cells", mapping.occupancy.ray_step_cells)
