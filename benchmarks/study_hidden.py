@@ -1,7 +1,7 @@
 """Which hidden size for the CPU? The same supervised objective at several sizes, same data.
 
 Actors of each ``--hidden`` size are trained on the EM-evaluated decisions one training
-run kept (its imitation replay buffer, ``checkpoints/last.pt``; ``imitation_target=rewards``:
+run kept (its imitation replay buffer, ``checkpoints/last.pt``; ``distill_target=expected_reward``:
 maximise the expected Algorithm 1 reward) and scored on another run's decisions, which
 they never saw: the greedy pick's Algorithm 1 reward, next to a random frontier's and the
 best one's (EM's) on the same decisions. Also the time per Adam step.
@@ -38,7 +38,7 @@ def kept_decisions(run_dir: Path) -> list:
     except CheckpointError as error:
         raise SystemExit(f"error: {error}") from None
     if payload.get("label_buffer") is None:
-        raise SystemExit(f"{run_dir}: no replay buffer in last.pt (train with algo.imitation_replay_steps > 0)")
+        raise SystemExit(f"{run_dir}: no replay buffer in last.pt (train with algo.dagger_steps > 0)")
     buffer = make_label_buffer(10**6, BATCH)
     buffer.load_state_dict(payload["label_buffer"])
     return [buffer.storage[i] for i in range(len(buffer))]
@@ -59,8 +59,8 @@ def greedy_reward(learner: Learner, batch) -> float:
 
 
 def train_and_score(hidden: int, train: list, test_batch, steps: int, lr: float, extra: list[str]) -> dict:
-    config = load_config(["scene=office", "slam=model", "algo.imitation_coef=1.0",
-                          "algo.imitation_target=rewards", f"model.hidden={hidden}", *extra])
+    config = load_config(["scene=office", "slam=model", "algo.distill_coef=1.0",
+                          "algo.distill_target=expected_reward", f"model.hidden={hidden}", *extra])
     torch.manual_seed(0)
     learner = Learner(config)
     optimizer = torch.optim.Adam(learner.actor.parameters(), lr=lr)
@@ -74,7 +74,7 @@ def train_and_score(hidden: int, train: list, test_batch, steps: int, lr: float,
         learner.set_training(True)
         batch = pad_graphs([train[i] for i in torch.randint(len(train), (BATCH,)).tolist()])
         start = time.perf_counter()
-        loss = learner.imitation_loss(batch)
+        loss = learner.distill_loss(batch)
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
@@ -114,8 +114,8 @@ def smoke_run(run_dir: Path, extra: list[str]) -> Path:
     from explore_rl.trainer.a2c import train
 
     config = load_config(["scene=office", "slam=model", "train.frames=5", "algo.steps_per_update=5",
-                          "train.progress_bar=false", "algo.imitation_coef=1.0", "algo.imitation_target=rewards",
-                          "algo.imitation_replay_steps=1", "model.hidden=8", *extra])
+                          "train.progress_bar=false", "algo.distill_coef=1.0", "algo.distill_target=expected_reward",
+                          "algo.dagger_steps=1", "model.hidden=8", *extra])
     train(config, run_dir)
     return run_dir
 

@@ -148,8 +148,7 @@ def validate(config: Config) -> None:
     validate_explore(config)
     if config.policy.name not in ("nearest", "random", "em", "learned"):
         raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random, em or learned")
-    if config.env.starts not in ("auto", "cycle", "sample", "default"):
-        raise ValueError(f"env.starts={config.env.starts!r}: choose auto, cycle, sample or default")
+    config.env.validate()
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:
         raise ValueError(f"graph.max_nodes={config.graph.max_nodes} must exceed planning.actions.max_frontiers="
                          f"{config.planning.actions.max_frontiers} (the current pose and every frontier are nodes)")

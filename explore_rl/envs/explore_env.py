@@ -50,6 +50,7 @@ from explore_rl.state import ExplorationState
 log = logging.getLogger(__name__)
 
 TERMINATING = (Status.EXPLORED, Status.NO_FRONTIER)  # the task ended; budgets truncate
+LAYOUT_STREAM = 7  # keeps the layout draw independent of the start draw of the same episode
 RESET_ATTEMPTS = 3  # episodes tried at a reset before giving up (a start with no frontier)
 # per-step figures besides the graph: (key, dtype)
 INFO_KEYS = (
@@ -62,6 +63,7 @@ INFO_KEYS = (
     ("contacts", torch.int64),  # motion steps so far whose true footprint touched an obstacle
     ("failed", torch.bool),
     ("episode", torch.int64),
+    ("layout", torch.int64),  # the scene seed of the episode (env.train_layouts)
 )
 
 
@@ -100,7 +102,8 @@ class ExplorationEnv(EnvBase):
         self.decision: Decision | None = None
         self.episode = 0
         self.max_nodes_seen = 0
-        self._scenes: dict[int, Scene] = {}
+        self._scenes: dict[tuple[int, int], Scene] = {}  # (layout, start) -> scene, in order of use
+        self.layout_of_episode = int(config.scene.seed)
         self._pending_replay: tuple[int, list[int]] | None = None
         self._set_seed(config.seed)
         self._make_specs()
@@ -140,11 +143,21 @@ class ExplorationEnv(EnvBase):
     def episode_seed(self) -> int:
         return int(np.random.SeedSequence([self.seed, self.episode]).generate_state(1)[0])
 
+    def layout(self) -> int:
+        """The layout (scene seed) of the next episode: drawn from ``env.train_layouts``
+        (a function of (seed, episode), so a replayed episode gets the same one), else
+        ``scene.seed``."""
+        bounds = self.config.env.train_layouts
+        if bounds is None:
+            return int(self.config.scene.seed)
+        rng = np.random.default_rng([self.seed, self.episode, LAYOUT_STREAM])
+        return int(rng.integers(bounds[0], bounds[1]))
+
     def start_index(self, n_starts: int) -> int:
         """The start of the next episode (``env.starts``)."""
         mode = self.config.env.starts
         if mode == "auto":
-            mode = "cycle" if self.config.scene.name == "office" else "default"
+            mode = {"office": "cycle", "building": "sample"}.get(self.config.scene.name, "default")
         if mode == "cycle":
             return (self.seed + self.episode) % n_starts
         if mode == "sample":  # a function of (seed, episode), so a replayed episode starts alike
@@ -153,21 +166,29 @@ class ExplorationEnv(EnvBase):
             return int(self.config.scene.start_index)
         raise ValueError(f"env.starts={mode!r}: choose auto, cycle, sample or default")
 
-    def scene(self, start_index: int) -> Scene:
-        """The scene built for ``start_index`` (structure built once per start, then reused)."""
-        if start_index not in self._scenes:
-            scene_config = dataclasses.replace(self.config.scene, start_index=start_index)
-            self._scenes[start_index] = make_scene(scene_config, self.config.robot, self.config.lidar)
-        return self._scenes[start_index]
+    def scene(self, layout: int, start_index: int) -> Scene:
+        """The scene of ``layout`` built for ``start_index`` (kept for reuse; the least
+        recently used goes beyond ``env.scene_cache``)."""
+        key = (layout, start_index)
+        if key in self._scenes:
+            self._scenes[key] = self._scenes.pop(key)  # most recently used last
+        else:
+            scene_config = dataclasses.replace(self.config.scene, seed=layout, start_index=start_index)
+            self._scenes[key] = make_scene(scene_config, self.config.robot, self.config.lidar)
+            while len(self._scenes) > self.config.env.scene_cache:
+                self._scenes.pop(next(iter(self._scenes)))
+        return self._scenes[key]
 
     def new_explorer(self) -> Explorer:
-        n_starts = len(self.scene(self.config.scene.start_index).layout.starts)
+        layout = self.layout()
+        n_starts = len(self.scene(layout, self.config.scene.start_index).layout.starts)
         start = self.start_index(n_starts)
         config = dataclasses.replace(self.config, seed=self.episode_seed(),
-                                     scene=dataclasses.replace(self.config.scene, start_index=start))
-        log.debug("episode %d: start %d, seed %d", self.episode, start, config.seed)
+                                     scene=dataclasses.replace(self.config.scene, seed=layout, start_index=start))
+        log.debug("episode %d: layout %d, start %d, seed %d", self.episode, layout, start, config.seed)
         self.episode += 1
-        return Explorer(config, policy=self.em, scene=self.scene(start))
+        self.layout_of_episode = layout
+        return Explorer(config, policy=self.em, scene=self.scene(layout, start))
 
     # ------------------------------------------------------------------ EnvBase
 
@@ -215,10 +236,14 @@ class ExplorationEnv(EnvBase):
         if decision is None:
             raise RuntimeError("step() called before reset() or after the episode ended: reset the env")
         reward, record, failed = self.decide(self.validate_action(int(tensordict.get("action")), decision))
-        status = self.explorer.result.status
-        terminated = self.decision is None and not failed and status in TERMINATING
-        truncated = self.decision is None and not terminated
-        out = self.observation(self.decision or decision, self.explorer_info(record, failed),
+        terminated = truncated = False
+        following = self.decision
+        if following is None:  # the episode ended with this step
+            terminated = not failed and self.explorer.result.status in TERMINATING
+            following = None if terminated else self.bootstrap_decision()
+            terminated = following is None  # nothing to bootstrap from: the value there is 0
+            truncated = not terminated
+        out = self.observation(following or decision, self.explorer_info(record, failed),
                                no_actions=self.decision is None)
         out.set("reward", torch.tensor([reward], dtype=torch.float32))
         out.set("terminated", torch.tensor([terminated]))
@@ -286,6 +311,30 @@ class ExplorationEnv(EnvBase):
                 self.failures["em"] += 1
         return Decision(state, actions, graph, encoded, rewards, em_choice)
 
+    def bootstrap_decision(self) -> Decision | None:
+        """At a truncation (travel budget, decision cap, a failed step): the graph of the
+        state the robot is in *after* the last action, with no EM evaluation, so the value
+        target bootstraps from V(s_T) and not from the previous decision's graph. None if
+        there is no frontier left (then the episode is as good as terminated) or the
+        state cannot be observed (logged)."""
+        try:
+            with self.timer("observe"):
+                state = self.explorer.observe()
+            if state is None:
+                return None
+            with self.timer("context"):
+                actions = self.em.actions(state)
+                context = self.em.decision_context(state)
+            with self.timer("graph"):
+                graph = graph_from_state(state, context, actions)
+                encoded = encode(graph, self.max_nodes)
+        except Exception:  # noqa: BLE001 -- the episode is over anyway
+            log.exception("episode %d: the final state could not be observed; it ends terminated",
+                          self.episode - 1)
+            self.failures["final_state"] += 1
+            return None
+        return Decision(state, actions, graph, encoded, rewards=None, em_choice=-1)
+
     def explorer_info(self, record: DecisionRecord | None, failed: bool) -> dict:
         """Per-step figures: from the decision's record, or the session at a reset/failure."""
         if record is not None:
@@ -299,11 +348,11 @@ class ExplorationEnv(EnvBase):
             blocked, contacts = False, self.explorer.robot.contacts
         return dict(explored=explored, map_error=map_error, travel=self.explorer.robot.travelled,
                     loop_closures=loops, keyframes=keyframes, blocked=blocked, contacts=contacts, failed=failed,
-                    episode=self.episode - 1)
+                    episode=self.episode - 1, layout=self.layout_of_episode)
 
     def observation(self, decision: Decision, info: dict, no_actions: bool = False) -> TensorDict:
-        """The observation keys of ``decision``. ``no_actions``: a final observation (the
-        last decision's graph with every action masked; nothing acts on it)."""
+        """The observation keys of ``decision``. ``no_actions``: a final observation (every
+        action masked; nothing acts on it; at a truncation the critic reads its graph)."""
         encoded = decision.encoded
         action_mask = np.zeros_like(encoded.action_mask) if no_actions else encoded.action_mask
         em_action = -1 if decision.em_choice < 0 else decision.action_row(decision.em_choice)

@@ -3,22 +3,23 @@
 One iteration: every worker takes ``algo.steps_per_update`` decisions with the current
 policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``), the batch
 ``[workers, T]`` gets its advantages from a TorchRL value estimator (GAE by default, per
-worker so trajectories never join), ``A2CLoss`` (+ an optional imitation term towards
-EM's choice) gives one Adam step, optionally followed by ``algo.imitation_replay_steps``
-supervised steps on EM-labelled decisions replayed from a buffer
-(explore_rl/trainer/imitation.py), and the collectors receive the new weights.
+worker so trajectories never join), ``A2CLoss`` (weight ``algo.a2c_coef``) plus an
+optional *distillation* term (``algo.distill_coef``: EM's evaluation of every frontier of
+the same decisions; not A2C) gives one Adam step, optionally followed by
+``algo.dagger_steps`` distillation steps on EM-labelled decisions replayed from a buffer
+(DAgger, explore_rl/trainer/imitation.py), and the collectors receive the new weights.
 
 What is TorchRL's: collectors, ``ProbabilisticActor``/``MaskedCategorical``/``ValueOperator``
 (explore_rl/models), ``A2CLoss`` and its value estimators, ``CSVLogger``/``TensorboardLogger``.
 What is written here, and why: the loop itself (``torchrl.trainers.A2CTrainer`` is a
 prototype that warns on construction, and its checkpoints restore neither the
 environments' mid-episode state nor the RNG, which an exact resume needs); the NaN guard
-(skip an update, count it); the imitation term and its replay; per-episode exploration
+(skip an update, count it); the distillation term and its replay; per-episode exploration
 figures.
 
 Exact resume: a checkpoint holds the weights, the optimiser, the torch RNG, the counters
 and, per worker, the current episode's index and the actions taken in it (``last.pt`` also
-holds the imitation buffer). Resuming
+holds the DAgger buffer). Resuming
 rebuilds each worker's env from a factory that replays that episode (every part of it is
 seeded), so with one worker the next update equals the uninterrupted run's.
 """
@@ -66,10 +67,10 @@ class UpdateStats:
     loss_objective: float
     loss_critic: float
     loss_entropy: float
-    loss_imitation: float
+    loss_distill: float
     entropy: float
     grad_norm: float
-    loss_replay: float | None = None  # mean imitation loss of the replayed minibatches
+    loss_replay: float | None = None  # mean distillation loss of the replayed minibatches
 
 
 class Learner:
@@ -88,35 +89,38 @@ class Learner:
             hyper["lmbda"] = algo.lmbda
         self.loss.make_value_estimator(ESTIMATOR_TYPES[algo.estimator], **hyper)
         self.optimizer = torch.optim.Adam(self.loss.parameters(), lr=algo.lr)
-        self.labels = make_label_buffer(algo.imitation_buffer, algo.imitation_batch)
+        self.labels = make_label_buffer(algo.dagger_buffer, algo.dagger_batch)
         self.skipped_updates = 0
         self.set_training(False)
 
     def set_training(self, on: bool) -> None:
-        """Dropout only inside an update; collection and evaluation act without it."""
+        """Dropout on (supervised replay steps) or off (acting, evaluation, the A2C update)."""
         self.actor.train(on)
         self.critic.train(on)
 
     def update(self, batch: TensorDictBase) -> UpdateStats | None:
-        """One A2C step on ``batch`` ``[workers, T]``; None (and a warning) if the loss or
-        the gradient is not finite: that update is skipped and counted."""
+        """One step on ``batch`` ``[workers, T]``: ``a2c_coef`` x the A2C terms plus
+        ``distill_coef`` x distillation on the same decisions; None (and a warning) if the
+        loss or the gradient is not finite: that update is skipped and counted.
+
+        The A2C terms are computed with the network in the mode it acted in (dropout
+        off): with dropout on, the policy being differentiated would not be the one that
+        sampled the actions. Dropout regularises only the replayed distillation steps."""
+        algo = self.config.algo
+        self.set_training(False)
         with torch.no_grad():
-            batch = self.loss.value_estimator(batch)  # advantage + value target, eval mode
-        self.set_training(True)
-        try:
-            losses = self.loss(batch)
-            total = sum(value for key, value in losses.items() if key.startswith("loss_"))
-            imitation = self.imitation_loss(batch)
-            total = total + self.config.algo.imitation_coef * imitation
-            grad_norm, why_not = self.gradient_step(total)
-            if grad_norm is None:
-                return self.skip(why_not)
-        finally:
-            self.set_training(False)
+            batch = self.loss.value_estimator(batch)  # advantage + value target
+        losses = self.loss(batch)
+        total = algo.a2c_coef * sum(value for key, value in losses.items() if key.startswith("loss_"))
+        distill = self.distill_loss(batch)
+        total = total + algo.distill_coef * distill
+        grad_norm, why_not = self.gradient_step(total)
+        if grad_norm is None:
+            return self.skip(why_not)
         zero = torch.zeros(())  # A2CLoss leaves out the entropy terms when entropy_coef is 0
         return UpdateStats(
             loss_objective=losses["loss_objective"].item(), loss_critic=losses["loss_critic"].item(),
-            loss_entropy=losses.get("loss_entropy", zero).item(), loss_imitation=imitation.item(),
+            loss_entropy=losses.get("loss_entropy", zero).item(), loss_distill=distill.item(),
             entropy=losses.get("entropy", zero).item(), grad_norm=grad_norm.item(),
             loss_replay=self.replay(batch))
 
@@ -135,11 +139,12 @@ class Learner:
         return grad_norm, ""
 
     def replay(self, batch: TensorDictBase) -> float | None:
-        """Keep ``batch``'s EM-labelled decisions, then take ``algo.imitation_replay_steps``
-        Adam steps on the imitation loss of minibatches drawn from all kept ones (DAgger).
-        Returns the mean loss (None when replay is off); a non-finite step is skipped."""
+        """DAgger: keep ``batch``'s EM-labelled decisions (states the policy visited), then
+        take ``algo.dagger_steps`` Adam steps on the distillation loss of minibatches drawn
+        from all kept ones. Returns the mean loss (None when replay is off); a non-finite
+        step is skipped."""
         algo = self.config.algo
-        if algo.imitation_replay_steps == 0:
+        if algo.dagger_steps == 0:
             return None
         decisions = compact_decisions(batch)
         if decisions:
@@ -149,31 +154,31 @@ class Learner:
         losses = []
         self.set_training(True)
         try:
-            for _ in range(algo.imitation_replay_steps):
-                loss = algo.imitation_coef * self.imitation_loss(self.labels.sample())
+            for _ in range(algo.dagger_steps):
+                loss = algo.distill_coef * self.distill_loss(self.labels.sample())
                 grad_norm, why_not = self.gradient_step(loss)
                 if grad_norm is None:
-                    log.warning("a replayed imitation step was skipped (%s)", why_not)
+                    log.warning("a replayed distillation step was skipped (%s)", why_not)
                     continue
                 losses.append(loss.item())
         finally:
             self.set_training(False)
         return sum(losses) / len(losses) if losses else None
 
-    def imitation_loss(self, batch: TensorDictBase) -> torch.Tensor:
-        """The supervised term on decisions EM evaluated (0 if none, or if
-        ``algo.imitation_coef`` is 0: then the actor is not run twice).
+    def distill_loss(self, batch: TensorDictBase) -> torch.Tensor:
+        """Distillation of EM's evaluation on the decisions EM evaluated (0 if none, or if
+        ``algo.distill_coef`` is 0: then the actor is not run twice). Not A2C.
 
-        ``algo.imitation_target``: ``em_choice`` is the cross-entropy towards EM's choice;
-        ``rewards`` is minus the policy's expected Algorithm 1 reward over *every* frontier
-        node (the env evaluates them all): the full-information form of the policy
-        gradient, with no sampling noise and no credit for EM's exact tie-breaks."""
+        ``algo.distill_target``: ``expected_reward`` is minus the policy's expected
+        Algorithm 1 reward over *every* frontier node (the env evaluates them all): a
+        one-step, full-information objective with no sampling noise and no credit for
+        EM's exact tie-breaks; ``em_choice`` is the cross-entropy towards EM's choice."""
         labels = batch["em_action"]
         known = labels >= 0
-        if self.config.algo.imitation_coef == 0 or not known.any():
+        if self.config.algo.distill_coef == 0 or not known.any():
             return torch.zeros(())
         dist = self.actor.get_dist(batch)
-        if self.config.algo.imitation_target == "rewards":
+        if self.config.algo.distill_target == "expected_reward":
             expected = (dist.probs * batch["action_rewards"]).sum(-1)
             return -expected[known].mean()
         return -dist.log_prob(labels.clamp_min(0))[known].mean()
@@ -211,6 +216,21 @@ def as_workers_by_time(batch: TensorDictBase, workers: int) -> TensorDictBase:
     if batch.ndim == 2:
         return batch
     return batch.reshape(workers, -1)
+
+
+class CollectionError(RuntimeError):
+    """The collector (a worker, its env outside a step, the weight sync) failed."""
+
+
+def collect(batches, sync_weights=None) -> TensorDictBase:
+    """The next batch, after sending the learner's weights (``sync_weights``); any failure
+    there is a :class:`CollectionError`."""
+    try:
+        if sync_weights is not None:
+            sync_weights()
+        return next(batches)
+    except Exception as error:  # noqa: BLE001 -- whatever a worker raised, it is the collection's
+        raise CollectionError(f"collection failed: {type(error).__name__}: {error}") from error
 
 
 # ---------------------------------------------------------------------- the run
@@ -283,7 +303,7 @@ class TrainingRun:
             while self.state.frames < self.config.train.frames:
                 try:
                     self.collect_and_update(collector, start)
-                except Exception:  # noqa: BLE001 -- the run goes on with new workers
+                except CollectionError:  # a worker died: the run goes on with new workers
                     restarts += 1
                     if restarts > MAX_COLLECTOR_RESTARTS:
                         raise
@@ -300,11 +320,14 @@ class TrainingRun:
         return self.state
 
     def collect_and_update(self, collector, start: float) -> None:
-        for batch in collector:
+        """Batches from ``collector`` and an update on each. Only a failure of the
+        collection is a :class:`CollectionError`; a learner or checkpoint error is a bug
+        and ends the run."""
+        batches, synced = iter(collector), True  # run() synced before the first batch
+        while self.state.frames < self.config.train.frames:
+            batch = collect(batches, None if synced else collector.update_policy_weights_)
             self.iteration(as_workers_by_time(batch, self.config.collector.workers), start)
-            if self.state.frames >= self.config.train.frames:
-                return
-            collector.update_policy_weights_()
+            synced = False
 
     def iteration(self, batch: TensorDictBase, start: float) -> None:
         """One update on a collected batch, then logs and checkpoints."""

@@ -6,34 +6,56 @@ from dataclasses import dataclass
 from typing import Optional
 
 ESTIMATORS = ("gae", "td_lambda", "td0")
-IMITATION_TARGETS = ("em_choice", "rewards")
+DISTILL_TARGETS = ("expected_reward", "em_choice")
+# options renamed so that nobody mistakes distillation for A2C: old name -> new name
+RENAMED = {
+    "imitation_coef": "distill_coef",
+    "imitation_target": "distill_target",
+    "imitation_replay_steps": "dagger_steps",
+    "imitation_batch": "dagger_batch",
+    "imitation_buffer": "dagger_buffer",
+}
+RENAMED_VALUES = {"imitation_target": {"rewards": "expected_reward"}}
 BACKENDS = ("local", "ray")
 LOGGERS = ("csv", "tensorboard")
 
 
 @dataclass
 class AlgoConfig:
-    """A2C (paper Sec. III-B): TorchRL's ``A2CLoss`` with a value estimator, Adam."""
+    """The learning objective: the paper's A2C (TorchRL's ``A2CLoss`` with a value
+    estimator, Adam), optionally plus *distillation* of EM's one-step utility.
+
+    Distillation is not A2C: with ``distill_target=expected_reward`` it maximises the
+    policy's expected Algorithm 1 reward over every frontier node, using EM's scores of
+    the actions not taken (a full-information, one-step objective; the policy gradient
+    only when gamma = 0); ``em_choice`` is the cross-entropy towards EM's pick. DAgger
+    replay (``dagger_steps``) adds supervised steps of the distillation loss on decisions
+    kept from the policy's own states. ``distill_coef=0`` is the paper's plain A2C;
+    ``a2c_coef=0`` is distillation alone.
+    """
 
     lr: float = 1e-4
     gamma: float = 0.99
     estimator: str = "gae"  # gae | td_lambda | td0 (TorchRL value estimators)
     lmbda: float = 0.95  # GAE / TD(lambda)
+    a2c_coef: float = 1.0  # weight of the A2C terms (policy, critic, entropy); 0 = distillation alone
     value_coef: float = 0.5  # beta: weight of the critic loss
     entropy_coef: float = 0.01  # eta: weight of the entropy bonus
-    # Weight of a cross-entropy term towards EM's choice at the same decision (the env
-    # computes it for the reward anyway): 0 is the paper's plain A2C.
-    imitation_coef: float = 0.0
-    # What it imitates: em_choice (cross-entropy towards EM's pick) | rewards (maximise the
-    # expected Algorithm 1 reward over every frontier node, which the env evaluates)
-    imitation_target: str = "em_choice"
-    # Extra supervised steps per update on decisions replayed from a buffer of the last
-    # ``imitation_buffer`` EM-labelled ones (explore_rl/trainer/imitation.py; 0 = none).
-    imitation_replay_steps: int = 0
-    imitation_batch: int = 16  # decisions per replayed minibatch
-    imitation_buffer: int = 3000  # labelled decisions kept (saved in checkpoints/last.pt)
+    distill_coef: float = 0.0  # weight of the distillation term on the collected decisions
+    distill_target: str = "expected_reward"  # expected_reward | em_choice
+    # DAgger: supervised distillation steps per update on decisions replayed from a buffer of
+    # the last ``dagger_buffer`` EM-labelled ones (explore_rl/trainer/imitation.py; 0 = none)
+    dagger_steps: int = 0
+    dagger_batch: int = 16  # decisions per replayed minibatch
+    dagger_buffer: int = 3000  # labelled decisions kept (saved in checkpoints/last.pt)
     max_grad_norm: float = 1.0  # gradient clipping (L2 norm over all parameters)
     steps_per_update: int = 10  # decisions per worker between updates (paper: 10)
+    # the old names, kept only to say the new ones (explore_rl/config.py:validate)
+    imitation_coef: Optional[float] = None
+    imitation_target: Optional[str] = None
+    imitation_replay_steps: Optional[int] = None
+    imitation_batch: Optional[int] = None
+    imitation_buffer: Optional[int] = None
 
 
 @dataclass

@@ -2,7 +2,7 @@
 
 The env scores every decision with EM (the Algorithm 1 reward) and so knows EM's choice
 (``em_action``) at no extra cost. A2C uses each decision once; kept here, every labelled
-decision the policy has visited also feeds ``algo.imitation_replay_steps`` supervised
+decision the policy has visited also feeds ``algo.dagger_steps`` supervised
 steps per update (DAgger: the states come from the learner's own policy, the labels from
 the expert), which is what makes an hour of CPU collection enough to move the policy.
 

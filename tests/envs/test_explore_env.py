@@ -211,3 +211,28 @@ def test_a_restored_episode_reproduces_the_observation_exactly():
     a, b = env.step(step)["next"], restored.step(step.clone())["next"]
     np.testing.assert_array_equal(a["x"].numpy(), b["x"].numpy())
     assert a["reward"].item() == b["reward"].item()
+
+
+def test_train_layouts_draw_each_episodes_layout_from_the_range_reproducibly():
+    config = load_config([*FAST, "scene=office", "env.train_layouts=[40,50]", "explore.max_decisions=1"])
+    env = make_env(config)
+    layouts = [int(env.reset()["layout"]) for _ in range(6)]
+    assert all(40 <= layout < 50 for layout in layouts) and len(set(layouts)) > 1
+    again = make_env(config)
+    assert [int(again.reset()["layout"]) for _ in range(6)] == layouts
+    assert len(env._scenes) <= config.env.scene_cache
+
+
+def test_without_train_layouts_every_episode_is_the_scene_seed():
+    env = make_env(load_config([*FAST, "scene=street", "seed=3", "explore.max_decisions=1"]))
+    assert [int(env.reset()["layout"]) for _ in range(2)] == [3, 3]
+
+
+@pytest.mark.parametrize("overrides,message", [
+    (["env.train_layouts=[0,2000]"], "overlaps env.validation_layouts"),
+    (["env.train_layouts=[5,5]"], "env.train_layouts"),
+    (["env.validation_layouts=[3]"], "env.validation_layouts"),
+])
+def test_bad_layout_ranges_are_refused_in_one_line(overrides, message):
+    with pytest.raises(ValueError, match=message):
+        load_config(overrides)

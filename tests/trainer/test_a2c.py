@@ -10,6 +10,7 @@ import torch
 
 from explore_rl.config import load_config
 from explore_rl.envs import make_env
+from explore_rl.models.actor_critic import Dropout
 from explore_rl.trainer.a2c import Learner, TrainingRun, make_collector, train
 from explore_rl.trainer.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
 
@@ -36,9 +37,9 @@ def batch():
 
 def test_the_losses_decrease_on_a_fixed_batch(batch):
     """With the value targets fixed (computed once), Adam steps on A2C's critic loss and
-    the imitation term fit the batch."""
+    the distillation term (cross-entropy to EM's choice: positive) fit the batch."""
     torch.manual_seed(0)
-    config = config_for("algo.imitation_coef=1.0", "model.dropout=0.0")
+    config = config_for("algo.distill_coef=1.0", "algo.distill_target=em_choice", "model.dropout=0.0")
     learner = Learner(config, make_env(config).action_spec)
     with torch.no_grad():
         data = learner.loss.value_estimator(batch.clone())
@@ -46,23 +47,23 @@ def test_the_losses_decrease_on_a_fixed_batch(batch):
     history = []
     for _ in range(40):
         losses = learner.loss(data)
-        critic, imitation = losses["loss_critic"], learner.imitation_loss(data)
+        critic, distill = losses["loss_critic"], learner.distill_loss(data)
         optimizer.zero_grad()
-        (critic + imitation).backward()
+        (critic + distill).backward()
         optimizer.step()
-        history.append((critic.item(), imitation.item()))
+        history.append((critic.item(), distill.item()))
     assert history[-1][0] < 0.2 * history[0][0]
     assert history[-1][1] < 0.2 * history[0][1]
 
 
 def test_an_update_changes_the_weights_and_reports_finite_figures(batch):
-    config = config_for("algo.imitation_coef=1.0")
+    config = config_for("algo.distill_coef=1.0")
     learner = Learner(config, make_env(config).action_spec)
     before = {k: v.clone() for k, v in learner.actor.state_dict().items()}
     stats = learner.update(batch.clone())
     assert stats.loss_replay is None  # replay is off by default
     assert all(torch.isfinite(torch.tensor(v)) for v in vars(stats).values() if v is not None)
-    assert stats.loss_imitation > 0 and stats.grad_norm > 0
+    assert stats.loss_distill != 0 and stats.grad_norm > 0
     assert any(not torch.equal(v, before[k]) for k, v in learner.actor.state_dict().items())
 
 
@@ -87,8 +88,8 @@ def test_the_sampled_action_is_always_a_frontier(batch):
 
 def test_resume_gives_the_same_next_update_as_an_uninterrupted_run(tmp_path):
     uninterrupted, killed = tmp_path / "a", tmp_path / "b"
-    common = ["train.checkpoint_every=1", "algo.imitation_coef=1.0", "algo.imitation_replay_steps=2",
-              "algo.imitation_batch=3"]
+    common = ["train.checkpoint_every=1", "algo.distill_coef=1.0", "algo.dagger_steps=2",
+              "algo.dagger_batch=3"]
     train(config_for(*common, "train.frames=20"), uninterrupted)
     train(config_for(*common, "train.frames=10"), killed)  # stops after 2 updates ...
     state = train(config_for(*common, "train.frames=20", "resume=true"), killed)  # ... and resumes
@@ -143,7 +144,7 @@ def test_bad_checkpoints_fail_with_one_line_naming_the_file(tmp_path):
     ("algo.lr=-1", "algo.lr must be positive"),
     ("algo.estimator=mc", "algo.estimator='mc'"),
     ("collector.workers=0", "collector.workers must be >= 1"),
-    ("algo.imitation_replay_steps=2", "needs algo.imitation_coef > 0"),
+    ("algo.dagger_steps=2", "needs algo.distill_coef > 0"),
     ("collector.backend=slurm", "collector.backend='slurm'"),
     ("model.hidden=0", "model.hidden must be a positive int"),
 ])
@@ -181,3 +182,83 @@ def test_a_worker_whose_env_raises_is_restarted_and_its_episode_logged_as_failed
     assert state.frames >= 30 and run.failed_collections == 1
     assert calls["n"] > 2
     assert any(e.failed for e in run.episodes.finished)
+
+
+def record_dropout_modes(learner) -> list[bool]:
+    """The ``training`` flag of the actor's dropout layers at every forward pass."""
+    modes: list[bool] = []
+    dropouts = [m for m in learner.actor.modules() if isinstance(m, Dropout)]
+    assert dropouts
+    dropouts[0].register_forward_pre_hook(lambda module, args: modes.append(module.training))
+    return modes
+
+
+def test_the_a2c_terms_see_the_policy_that_acted_dropout_off(batch):
+    """With dropout 0.5, the A2C objective of an update equals -(log pi(a|s) * A) computed
+    with the network in its acting mode (eval: dropout off). With dropout on in the loss
+    the policy being differentiated would not be the one that sampled the actions."""
+    config = config_for("model.dropout=0.5", "algo.entropy_coef=0.0")
+    torch.manual_seed(1)
+    learner = Learner(config, make_env(config).action_spec)
+    modes = record_dropout_modes(learner)
+    data = batch.clone()
+    with torch.no_grad():
+        learner.actor.eval()
+        learner.critic.eval()
+        expected_data = learner.loss.value_estimator(data.clone())
+        log_prob = learner.actor.get_dist(expected_data).log_prob(expected_data["action"])
+        expected = -(log_prob * expected_data["advantage"].squeeze(-1)).mean()
+    modes.clear()
+    stats = learner.update(data)
+    assert modes and not any(modes)
+    assert stats.loss_objective == pytest.approx(expected.item(), rel=1e-5, abs=1e-7)
+
+
+def test_dagger_steps_use_dropout_and_leave_it_off_afterwards(batch):
+    config = config_for("model.dropout=0.5", "algo.distill_coef=1.0", "algo.dagger_steps=2", "algo.dagger_batch=3")
+    learner = Learner(config, make_env(config).action_spec)
+    modes = record_dropout_modes(learner)
+    learner.update(batch.clone())
+    assert True in modes and False in modes  # A2C + distillation in eval mode, replay in train mode
+    assert not learner.actor.training and not learner.critic.training
+
+
+def _episode_batch(config) -> "torch.Tensor":
+    """One whole episode of the env (actions: the nearest frontier) as a [1, T] batch."""
+    from tensordict import TensorDict
+
+    env = make_env(config)
+    td = env.reset()
+    steps = []
+    while True:
+        td = td.set("action", td["nearest_action"].clone())
+        td = env.step(td)
+        steps.append(td.clone())
+        if bool(td["next", "done"]):
+            break
+        td = td["next"].clone()
+    return TensorDict.maybe_dense_stack(steps, 0).unsqueeze(0)
+
+
+@pytest.mark.parametrize("end", ["truncated", "terminated"])
+def test_value_targets_bootstrap_at_a_truncation_and_not_at_a_termination(end):
+    """TD(0) target of the last step: r + gamma V(s_T) when the episode was cut (decision
+    cap) -- with s_T the graph *after* the last action, not the one before it -- and r
+    alone when the task ended (here: a 13 % explored target, reached after 2 decisions)."""
+    overrides = ["algo.estimator=td0", "algo.gamma=0.9", "model.dropout=0.0"]
+    overrides += ["explore.max_decisions=2"] if end == "truncated" else ["explore.target_explored=0.13"]
+    config = config_for(*overrides)
+    torch.manual_seed(0)
+    learner = Learner(config, make_env(config).action_spec)
+    data = _episode_batch(config)
+    last = data[0, -1]
+    assert bool(last["next", end]) and bool(last["next", "done"])
+    assert not bool(last["next", "action_mask"].any())
+    if end == "truncated":  # the post-action graph: more keyframes than the decision before it
+        assert int(last["next", "node_mask"].sum()) > int(last["node_mask"].sum())
+    with torch.no_grad():
+        targets = learner.loss.value_estimator(data.clone())["value_target"][0, -1]
+        next_value = learner.critic(last["next"].clone())["state_value"]
+    reward = last["next", "reward"]
+    expected = reward + 0.9 * next_value if end == "truncated" else reward
+    torch.testing.assert_close(targets, expected, rtol=1e-5, atol=1e-6)

@@ -53,40 +53,40 @@ def test_the_buffer_keeps_only_the_last_capacity_decisions_and_survives_a_state_
     assert torch.equal(first["x"], second["x"]) and torch.equal(first["em_action"], second["em_action"])
 
 
-def test_replay_steps_fill_the_buffer_and_lower_the_imitation_loss(batch):  # noqa: F811
+def test_replay_steps_fill_the_buffer_and_lower_the_distill_loss(batch):  # noqa: F811
     torch.manual_seed(0)
-    config = config_for("algo.imitation_coef=1.0", "algo.imitation_replay_steps=30", "algo.lr=1e-2",
-                        "algo.imitation_batch=4", "model.dropout=0.0")
+    config = config_for("algo.distill_coef=1.0", "algo.dagger_steps=30", "algo.lr=1e-2",
+                        "algo.dagger_batch=4", "model.dropout=0.0")
     learner = Learner(config)
     replayed = pad_graphs(compact_decisions(batch))
     with torch.no_grad():
-        before = learner.imitation_loss(replayed).item()
+        before = learner.distill_loss(replayed).item()
     stats = learner.update(batch.clone())
     with torch.no_grad():
-        after = learner.imitation_loss(replayed).item()
+        after = learner.distill_loss(replayed).item()
     assert len(learner.labels) == len(compact_decisions(batch))
     assert stats.loss_replay is not None and after < 0.5 * before
 
 
 def test_the_rewards_target_raises_the_expected_reward_of_every_replayed_decision(batch):  # noqa: F811
-    """imitation_target=rewards: the loss is minus the policy's expected Algorithm 1 reward
+    """distill_target=expected_reward: the loss is minus the policy's expected Algorithm 1 reward
     (checked against a direct sum over the frontier rows), and Adam steps raise it."""
     torch.manual_seed(0)
-    config = config_for("algo.imitation_coef=1.0", "algo.imitation_target=rewards", "model.dropout=0.0")
+    config = config_for("algo.distill_coef=1.0", "algo.distill_target=expected_reward", "model.dropout=0.0")
     learner = Learner(config)
     replayed = pad_graphs(compact_decisions(batch))
     with torch.no_grad():
         probs = torch.softmax(learner.actor.get_dist(replayed).logits, -1)
         by_hand = [float(sum(p[row] * r[row] for row in torch.nonzero(m).flatten()))
                    for p, r, m in zip(probs, replayed["action_rewards"], replayed["action_mask"])]
-        before = learner.imitation_loss(replayed).item()
+        before = learner.distill_loss(replayed).item()
     assert before == pytest.approx(-sum(by_hand) / len(by_hand), abs=1e-5)
     optimizer = torch.optim.Adam(learner.actor.parameters(), lr=1e-2)
     for _ in range(30):
-        loss = learner.imitation_loss(replayed)
+        loss = learner.distill_loss(replayed)
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
     best = (replayed["action_rewards"] + torch.where(replayed["action_mask"], 0.0, -9.0)).max(-1).values
-    assert learner.imitation_loss(replayed).item() < before
-    assert -learner.imitation_loss(replayed).item() <= best.mean().item() + 1e-6
+    assert learner.distill_loss(replayed).item() < before
+    assert -learner.distill_loss(replayed).item() <= best.mean().item() + 1e-6
