@@ -128,9 +128,8 @@ def draw_plan(rng: np.random.Generator, config: SceneConfig, robot_radius: float
     kind = str(rng.choice(b.corridor_kinds, p=np.asarray(b.corridor_weights) / sum(b.corridor_weights)))
     labels, kinds = corridor_raster(rng, shape, kind, b)
     labels, kinds = fill_rooms(rng, labels, kinds, b)
-    runs = boundary_runs(labels)
-    joins = sorted({pair for pair in runs if kinds[pair[0]] == CORRIDOR and kinds[pair[1]] == CORRIDOR})
-    doors = choose_doors(rng, runs, kinds, joins, b)
+    joins = sorted({pair for pair in boundary_runs(labels) if kinds[pair[0]] == kinds[pair[1]] == CORRIDOR})
+    doors = choose_doors(rng, boundary_runs(labels, door_depth(b)), kinds, joins, b)
     walls = merged_walls(labels, kinds, doors, m, config.wall_thickness)
     base = Layout("building", size, walls=tuple(walls), wall_height=config.wall_height,
                   perimeter_thickness=config.wall_thickness)
@@ -318,25 +317,36 @@ def merge_slivers(labels: np.ndarray, slivers: list[Rect]) -> None:
 Run = tuple[int, int, int, int]
 
 
-def boundary_runs(labels: np.ndarray) -> dict[tuple[int, int], list[Run]]:
+def boundary_runs(labels: np.ndarray, depth: int = 1) -> dict[tuple[int, int], list[Run]]:
     """Every border between two regions, as maximal straight runs, keyed by the region pair.
 
     Axis 1: the vertical line ``x = line`` between columns ``line - 1`` and ``line``;
     axis 0: the horizontal line ``y = line``. ``first``/``last`` count cells along it.
+    Only border cells with ``depth`` cells of the same region on both sides count (a door
+    must not open into a nook thinner than the robot).
     """
     runs: dict[tuple[int, int], list[Run]] = {}
     for axis, grid in ((1, labels), (0, labels.T)):
         # grid[along, across]: the cells on either side of line `line` are columns line-1, line
         low, high = np.minimum(grid[:, :-1], grid[:, 1:]), np.maximum(grid[:, :-1], grid[:, 1:])
-        key = np.where(low != high, low * (labels.max() + 1) + high, -1)
         for line in range(1, grid.shape[1]):
-            k = key[:, line - 1]
+            if line < depth or line + depth > grid.shape[1]:
+                continue
+            near, far = grid[:, line - depth : line], grid[:, line : line + depth]
+            deep = (near == near[:, -1:]).all(axis=1) & (far == far[:, :1]).all(axis=1)
+            pair_low, pair_high = low[:, line - 1], high[:, line - 1]
+            k = np.where((pair_low != pair_high) & deep, pair_low * (labels.max() + 1) + pair_high, -1)
             change = np.nonzero(np.diff(np.concatenate([[-2], k, [-2]])))[0]
             for first, last in zip(change[:-1], change[1:]):
                 if k[first] >= 0:
-                    pair = (int(low[first, line - 1]), int(high[first, line - 1]))
+                    pair = (int(pair_low[first]), int(pair_high[first]))
                     runs.setdefault(pair, []).append((axis, line, int(first), int(last)))
     return runs
+
+
+def door_depth(b: BuildingConfig) -> int:
+    """Cells of the same region a door needs on each side: the narrowest door's width."""
+    return int(np.ceil(b.door_min_width / b.module - 1e-9))
 
 
 def choose_doors(rng: np.random.Generator, runs: dict[tuple[int, int], list[Run]], kinds: list[str],

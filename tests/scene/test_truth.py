@@ -101,3 +101,21 @@ def test_start_inside_a_solid_is_rejected():
 def test_start_outside_the_grid_is_rejected():
     with pytest.raises(ValueError, match="outside the grid"):
         free_space(room(), layout_grid(room(), RES), RADIUS, (5.0, 1.0))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_free_masks_equal_the_brute_force_clearance(seed):
+    """free_masks evaluates each solid on its window only; the reference thresholds the
+    clearance of every cell to every solid. Same masks, on a building and on the office."""
+    from explore_rl.robot import RobotConfig
+    from explore_rl.scene.build import make_layout
+    from explore_rl.scene.config import SceneConfig
+    from explore_rl.scene.truth import clearance, free_masks
+
+    for name in ("building", "office"):
+        layout = make_layout(SceneConfig(name=name, seed=seed), RobotConfig().radius)
+        grid = layout_grid(layout, RES)
+        free, traversable = free_masks(layout, grid, RADIUS)
+        dist = clearance(layout, grid)
+        assert np.array_equal(free, dist > 0.0) and np.array_equal(traversable, dist > RADIUS)
+        assert 0 < traversable.sum() < free.sum() < free.size
