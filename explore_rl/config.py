@@ -167,7 +167,7 @@ def validate_scene(config: Config) -> None:
     checks.at_least("scene.start_index", scene.start_index, 0)
     checks.positive("scene.grid_resolution", scene.grid_resolution)
     if scene.name == "building":
-        validate_building(scene.building, config.robot.radius, scene.wall_thickness)
+        validate_building(scene, config.robot.radius)
     if scene.name in MIN_SCENE_SIZE:
         checks.finite_pair("scene.size", scene.size)
         low = MIN_SCENE_SIZE[scene.name]

@@ -105,7 +105,7 @@ def building_layout(config: SceneConfig, robot_radius: float) -> Layout:
 def generate_building(config: SceneConfig, robot_radius: float) -> BuildingPlan:
     """Draw the plan of ``config.seed``; re-draw deterministically until it passes the checks."""
     b = config.building
-    validate_building(b, robot_radius, config.wall_thickness)
+    validate_building(config, robot_radius)
     reasons: list[str] = []
     for attempt in range(b.max_attempts):
         rng = np.random.default_rng([config.seed, attempt])

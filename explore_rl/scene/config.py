@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import math
 from typing import Optional
 
 from explore_rl import checks
@@ -90,10 +91,10 @@ class SceneConfig:
     building: BuildingConfig = field(default_factory=BuildingConfig)
 
 
-def validate_building(b: BuildingConfig, robot_radius: float, wall_thickness: float) -> None:
+def validate_building(scene: SceneConfig, robot_radius: float) -> None:
     """Every ``scene.building.*`` knob in its range (see :class:`BuildingConfig`); one-line
     ``ValueError`` naming the key, the allowed range and what it depends on."""
-    key = "scene.building."
+    b, wall_thickness, key = scene.building, scene.wall_thickness, "scene.building."
     for name in ("size_min", "size_max", "module", "corridor_min_width", "corridor_max_width", "room_min_side",
                  "room_max_side", "hall_min_side", "door_min_width", "door_max_width", "door_jamb", "table_height"):
         checks.positive(key + name, getattr(b, name))
@@ -131,6 +132,14 @@ def validate_building(b: BuildingConfig, robot_radius: float, wall_thickness: fl
         low_high = list(getattr(b, name))
         if len(low_high) != 2 or not 0 < low_high[0] <= low_high[1] < float("inf"):
             raise ValueError(f"{key}{name} must be [min, max] with 0 < min <= max (finite), got {low_high}")
+    footprints = {"table_length": math.hypot(b.table_length[1], b.table_width[1]) / 2,
+                  "pillar_radius": b.pillar_radius[1],
+                  "scene.object_max_size": math.hypot(scene.object_max_size, scene.object_max_size) / 2}
+    for name, radius in footprints.items():
+        if radius + scene.object_clearance >= b.size_min / 2:
+            raise ValueError(f"{name if '.' in name else key + name}: objects of footprint radius {radius:g} m "
+                             f"+ scene.object_clearance={scene.object_clearance:g} must fit in half of "
+                             f"scene.building.size_min={b.size_min:g}")
 
 
 def _check_choice(key: str, kinds: list[str], allowed: tuple[str, ...], weights_key: str,

@@ -191,7 +191,9 @@ def test_a_failed_draw_is_redrawn_deterministically(monkeypatch):
 
 def test_a_seed_that_cannot_be_drawn_is_a_clear_error():
     with pytest.raises(RuntimeError, match=r"scene=building seed=2: no valid plan in scene.building.max_attempts=2"):
-        generate_building(config(2, clutter_density=60.0, clutter_max=400, max_attempts=2), RADIUS)
+        # no room of at most 9 m (no hall) leaves 5 m around an object
+        scene = dataclasses.replace(config(2, clutter_max=1, hall_probability=0.0, max_attempts=2), object_clearance=5.0)
+        generate_building(scene, RADIUS)
 
 
 def test_starts_index_into_the_plan():
@@ -235,6 +237,7 @@ BAD_VALUES = [
     ("object_kinds", ["sofa"], "object_kinds=\\['sofa'\\]: choose"),
     ("object_weights", [1.0], "object_weights=\\[1.0\\] needs one finite weight"),
     ("table_length", [2.0, 1.0], "table_length must be \\[min, max\\]"),
+    ("table_length", [30.0, 40.0], "table_length: objects of footprint radius 20.0062 m"),
     ("table_width", [0.0, 1.0], "table_width must be \\[min, max\\]"),
     ("table_height", 0.0, "table_height must be positive"),
     ("pillar_radius", [0.2], "pillar_radius must be \\[min, max\\]"),
@@ -250,7 +253,7 @@ def test_every_knob_has_a_bad_value_case():
 @pytest.mark.parametrize(("key", "value", "message"), BAD_VALUES, ids=[f"{k}={v}" for k, v, _ in BAD_VALUES])
 def test_bad_value_rejected_in_one_line(key, value, message):
     with pytest.raises(ValueError, match=message) as error:
-        validate_building(BuildingConfig(**{key: value}), RADIUS, SceneConfig().wall_thickness)
+        validate_building(config(**{key: value}), RADIUS)
     assert "\n" not in str(error.value) and "scene.building." in str(error.value)
 
 
