@@ -1,15 +1,24 @@
-"""Does the trained policy learn? Greedy office evaluation of training runs vs nearest/EM/random.
+"""The evaluation protocol on the command line: does a policy decide like EM on layouts it never saw?
 
-For each run folder (``explore-rl-train ... out=DIR``) the actor of its last checkpoint
-(and of its numbered snapshots with ``--snapshots``) plays the evaluation episodes of
-``explore_rl.trainer.evaluate`` (the office's 9 starts, seeds training never uses, at most
-``--max-decisions`` decisions); nearest frontier, EM and random play the same episodes.
-Reported: mean Algorithm 1 reward per decision and agreement with EM's choice, and
-whether issue 13's bar (nearest + half of EM - nearest) is met. Training curves (episode
-reward and EM agreement against wall-clock) of all runs go into one figure and a CSV.
+Every policy (the learned one, EM, nearest frontier, random) plays exactly the same
+episodes -- ``--layouts`` (scene seeds) x the first ``--starts`` starts, each with a noise
+seed of its own, at most ``--max-decisions`` decisions -- with one config, and every
+decision is scored by the Algorithm 1 reward (explore_rl/trainer/evaluate.py). Reported:
+mean reward per decision with a 95 % bootstrap interval over episodes, agreement with
+EM, and gap_closed = (learned - random) / (EM - random) with its paired bootstrap
+interval, pooled and per layout. The policy's training layouts are refused.
 
-    python benchmarks/study_learning.py --runs runs/office_imitation_s0 runs/office_plain_s0 \\
-        [--snapshots] [--checkpoint last|best|update_<k>] [--max-decisions 15] [--out benchmarks/results/learning] [--smoke]
+    # a policy file (actor file or training checkpoint) on held-out layouts
+    python benchmarks/study_learning.py --policy policies/office_a2c/actor.pt --layouts 2000 2001 \
+        [--scene office|building|street|garage|file] [--set scene.path=lab.yaml ...] --starts 9 \
+        --max-decisions 10 [--workers 2] [--out DIR]
+    # training runs: each run's checkpoint (and numbered snapshots, for model selection) on
+    # its validation layouts (default) or --layouts; training curves against wall-clock
+    python benchmarks/study_learning.py --runs runs/a runs/b [--snapshots] [--checkpoint last|best|update_<k>]
+
+The last line of stdout is one JSON object: ``policies`` (each ``mean_reward``, ``ci95``,
+``em_agreement``, ...), ``gap_closed``, ``gap_closed_ci95``, ``layouts``, ``per_layout``
+(for ``--runs``: one such object per run and checkpoint under ``runs``).
 """
 
 from __future__ import annotations
@@ -26,30 +35,43 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine  # noqa: E402
 
-from explore_rl.config import load_config, load_saved_config  # noqa: E402
+from explore_rl.config import Config, load_config, load_saved_config  # noqa: E402
 from explore_rl.trainer.evaluate import (  # noqa: E402
-    baseline,
-    evaluate,
-    greedy_actor,
-    learning_target,
+    POLICIES,
+    actor_training_config,
+    check_held_out,
+    episode_specs,
+    layout_range,
+    run_protocol,
     summarize,
+    training_layouts,
 )
 
 RESULTS = Path(__file__).resolve().parent / "results" / "learning"
-BASELINES = ("nearest", "em", "random")
 SCALARS = Path("logs") / "a2c" / "scalars"
 
 
-def evaluate_baselines(config, starts: list[int], max_decisions: int, cache: Path) -> dict:
-    """nearest, EM and random on the evaluation episodes (cached: they never change)."""
-    key = f"starts={starts},max_decisions={max_decisions}"
-    stored = json.loads(cache.read_text()) if cache.is_file() else {}
-    if key not in stored:
-        stored[key] = {name: summarize(evaluate(config, name, baseline(name), starts, max_decisions))
-                       for name in BASELINES}
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        cache.write_text(json.dumps(stored, indent=1))
-    return stored[key]
+def evaluate_policy(config: Config, actor_path: Path | None, layouts: list[int], starts: int, max_decisions: int,
+                    workers: int, out: Path, policies: tuple[str, ...] = POLICIES) -> dict:
+    """The protocol for one policy file: every policy on the same episodes; the summary."""
+    specs = episode_specs(layouts, starts)
+    results = run_protocol(config, specs, policies, max_decisions, actor_path=actor_path, workers=workers,
+                           cache=out / "episodes.jsonl")
+    return summarize(results)
+
+
+def print_summary(title: str, summary: dict) -> None:
+    print(f"== {title}: layouts {summary['layouts']}")
+    for name, figures in summary["policies"].items():
+        low, high = figures["ci95"]
+        print(f"  {name:8s} reward {figures['mean_reward']:+.3f} [{low:+.3f}, {high:+.3f}]  EM agreement "
+              f"{figures['em_agreement']:.2f}  ({figures['episodes']} episodes, {figures['decisions']} decisions)")
+    if "gap_closed" in summary:
+        low, high = summary["gap_closed_ci95"]
+        print(f"  gap_closed {summary['gap_closed']:+.3f} [{low:+.3f}, {high:+.3f}]")
+        for layout, per in summary["per_layout"].items():
+            low, high = per.get("gap_closed_ci95", [float("nan")] * 2)
+            print(f"    layout {layout}: gap_closed {per.get('gap_closed', float('nan')):+.3f} [{low:+.3f}, {high:+.3f}]")
 
 
 def read_scalar(run_dir: Path, name: str) -> np.ndarray:
@@ -113,53 +135,106 @@ def write_curves_csv(runs: dict[str, dict], path: Path) -> None:
                     writer.writerow([name, key, int(decisions), round(minutes, 3), value])
 
 
-def main() -> None:
+def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", nargs="*", default=[])
-    parser.add_argument("--snapshots", action="store_true", help="evaluate every numbered snapshot too")
-    parser.add_argument("--checkpoint", default="last",
-                        help="which checkpoint of each run: last, best or update_<k> (e.g. a 2-hour snapshot)")
-    parser.add_argument("--max-decisions", type=int, default=15)
-    parser.add_argument("--starts", type=int, nargs="*", default=list(range(9)))
+    parser.add_argument("--policy", default=None, help="an actor file or training checkpoint to evaluate")
+    parser.add_argument("--runs", nargs="*", default=[], help="training run folders to evaluate")
+    parser.add_argument("--layouts", type=int, nargs="*", default=None,
+                        help="scene seeds to evaluate on (--runs: default the run's env.validation_layouts)")
+    parser.add_argument("--scene", default="office", help="office, building, street, garage or file (--policy)")
+    parser.add_argument("--slam", default="model", help="the front end of the episodes (--policy): model or icp")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="further config overrides of the episodes, e.g. scene.path=lab.yaml")
+    parser.add_argument("--starts", type=int, default=9, help="the first N starts of each layout")
+    parser.add_argument("--max-decisions", type=int, default=10)
+    parser.add_argument("--workers", type=int, default=1, help="episode processes")
+    parser.add_argument("--snapshots", action="store_true", help="--runs: every numbered snapshot too (selection)")
+    parser.add_argument("--checkpoint", default="last", help="--runs: last, best or update_<k>")
+    parser.add_argument("--allow-training-layouts", action="store_true",
+                        help="score on the policy's own training layouts (an in-sample figure, labelled so)")
     parser.add_argument("--out", default=None)
     parser.add_argument("--smoke", action="store_true", help="train a 5-decision run and evaluate it on 1 start")
     args = parser.parse_args()
+    if not args.policy and not args.runs and not args.smoke:
+        parser.error("give --policy FILE or --runs DIR ... (or --smoke)")
+    if args.starts < 1 or args.max_decisions < 1 or args.workers < 1:
+        parser.error("--starts, --max-decisions and --workers must be >= 1")
+    return args
+
+
+def held_out(args, scene: str, layouts: list[int], trained_scene: str | None, trained: range, what: str) -> bool:
+    """Refuse training layouts unless allowed; True when the figure is held out."""
+    if args.allow_training_layouts:
+        return trained_scene != scene or not set(layouts) & set(trained)
+    check_held_out(scene, layouts, trained_scene, trained, what)
+    return True
+
+
+def main() -> None:
+    args = parse_args()
     extra = ["planning.actions.max_frontiers=3", "model.hidden=16", "model.mlp_hidden=16"] if args.smoke else []
     out = Path(args.out) if args.out else (Path(tempfile.mkdtemp()) if args.smoke else RESULTS)
     out.mkdir(parents=True, exist_ok=True)
     runs = [Path(r) for r in args.runs]
     if args.smoke:
-        args.starts, args.max_decisions = [0], 2
+        args.starts, args.max_decisions = 1, 2
         runs = [smoke_run(out / "smoke_run", extra)]
+        args.policy = str(runs[0] / "checkpoints" / "last.pt")
+        args.layouts = [1000]
+    result = {"study": "learning", "smoke": args.smoke, "machine": machine(), "starts": args.starts,
+              "max_decisions": args.max_decisions}
+    if args.policy:
+        layouts = args.layouts or []
+        if not layouts:
+            raise SystemExit("error: --policy needs --layouts S1 S2 ... (held-out scene seeds)")
+        config = load_config([f"scene={args.scene}", f"slam={args.slam}", *extra, *args.set])
+        trained_scene, trained = training_layouts(actor_training_config(args.policy))
+        try:
+            is_held_out = held_out(args, config.scene.name, layouts, trained_scene, trained, args.policy)
+        except ValueError as error:
+            raise SystemExit(f"error: {error}") from None
+        summary = evaluate_policy(config, Path(args.policy), layouts, args.starts, args.max_decisions, args.workers,
+                                  out)
+        print_summary(f"{args.policy} on {config.scene.name} ({'held out' if is_held_out else 'IN-SAMPLE'})", summary)
+        (out / "protocol.json").write_text(json.dumps(summary, indent=1))
+        result.update(summary, policy=args.policy, scene=config.scene.name, slam=config.slam.frontend,
+                      held_out=is_held_out)
+    if runs:
+        result["runs"] = evaluate_runs(args, runs, out)
+    emit(result)
 
-    config = load_config(["scene=office", "slam=model", *extra])
-    baselines = evaluate_baselines(config, args.starts, args.max_decisions, out / "eval_baselines.json")
-    target = learning_target(baselines["nearest"]["mean_reward"], baselines["em"]["mean_reward"])
-    results, all_curves = {}, {}
+
+def evaluate_runs(args, runs: list[Path], out: Path) -> dict:
+    """Each run's checkpoints under the protocol (its own config, its validation layouts
+    unless --layouts), the training curves of all runs in one figure and CSV."""
+    results, all_curves, baselines = {}, {}, {}
     for run_dir in runs:
         config = load_saved_config(run_dir / "config.yaml")
+        layouts = args.layouts or list(layout_range(config.env.validation_layouts))
+        trained = layout_range(config.env.train_layouts) or range(config.scene.seed, config.scene.seed + 1)
+        try:
+            is_held_out = held_out(args, config.scene.name, layouts, config.scene.name, trained, str(run_dir))
+        except ValueError as error:
+            raise SystemExit(f"error: {error}") from None
         checkpoints = sorted((run_dir / "checkpoints").glob("update_*.pt")) if args.snapshots else []
         checkpoints.append(run_dir / "checkpoints" / f"{args.checkpoint}.pt")
         evaluations = {}
         for path in checkpoints:
-            summary = summarize(evaluate(config, "learned", greedy_actor(config, path), args.starts,
-                                         args.max_decisions))
-            summary["meets_target"] = summary["mean_reward"] >= target
+            summary = evaluate_policy(config, path, layouts, args.starts, args.max_decisions, args.workers, out)
+            summary["held_out"] = is_held_out
+            print_summary(f"{run_dir.name}/{path.stem}", summary)
             evaluations[path.stem] = summary
-            print(f"{run_dir.name:28s} {path.stem:14s} reward {summary['mean_reward']:+.3f}  "
-                  f"EM agreement {summary['em_agreement']:.2f}", flush=True)
+            baselines = {name: summary["policies"][name] for name in ("em", "nearest", "random")}
+        if args.snapshots:
+            best = max(evaluations, key=lambda name: evaluations[name].get("gap_closed", -np.inf))
+            print(f"{run_dir.name}: selected on layouts {layouts}: {best}")
+            evaluations["selected"] = best
         results[run_dir.name] = evaluations
         all_curves[run_dir.name] = curves(run_dir)
-    for name in BASELINES:
-        print(f"{name:28s} {'':14s} reward {baselines[name]['mean_reward']:+.3f}  "
-              f"EM agreement {baselines[name]['em_agreement']:.2f}")
-    print(f"target (nearest + half the gap to EM): {target:+.3f}")
     plot_curves(all_curves, baselines, out / "learning_curves.png")
     write_curves_csv(all_curves, out / "learning_curves.csv")
-    (out / "learning_eval.json").write_text(json.dumps({"baselines": baselines, "runs": results}, indent=1))
-    emit({"study": "learning", "smoke": args.smoke, "machine": machine(), "max_decisions": args.max_decisions,
-          "starts": args.starts, "baselines": baselines, "target_reward": target, "runs": results,
-          "figure": str(out / "learning_curves.png")})
+    (out / "learning_eval.json").write_text(json.dumps(results, indent=1))
+    return results
 
 
 def smoke_run(run_dir: Path, extra: list[str]) -> Path:

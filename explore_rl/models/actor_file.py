@@ -83,7 +83,8 @@ def read_actor_file(path: str | Path) -> ActorFile:
         meta = {"source": str(path), "kind": "training checkpoint", **payload.get("state", {})}
         meta.pop("episodes", None)
         meta.update(scene=config.get("scene", {}).get("name"), slam=config.get("slam", {}).get("frontend"),
-                    seed=config.get("seed"))
+                    seed=config.get("seed"), scene_seed=config.get("scene", {}).get("seed"),
+                    train_layouts=config.get("env", {}).get("train_layouts"))
         return ActorFile(model, weights, list(FEATURES), int(config.get("graph", {}).get("max_nodes", 512)), meta)
     return ActorFile(model, payload["actor"], list(payload.get("features", FEATURES)),
                      int(payload.get("graph_max_nodes", 512)), dict(payload.get("meta", {})))
