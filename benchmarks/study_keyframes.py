@@ -1,0 +1,114 @@
+"""Keyframe spacing of ``slam=model`` (and ``icp``): is 0.5 m / 15 deg needed?
+
+On the office tours of ``benchmarks/bench_frontends.py``: per seed, the icp front end
+drives the tour once at the default spacing (loop closures on, steering by its belief) and
+its motion steps are recorded; the same steps are then replayed, each in a fresh process,
+into sessions with other ``slam.keyframe_distance`` / ``slam.keyframe_angle_deg``:
+``model`` (the training front end; ``draws`` noise draws) and ``icp`` (the evaluation
+front end). Per run: keyframes, ATE, map error, loop closures, explored fraction and
+wall time per keyframe and per metre. Fidelity as bench_frontends judges it: the model's
+mean ATE, map error and loop closures within the spread (min..max over seeds) of icp's at
+the default spacing; and how far the model's keyframes per metre (its graph size) stray
+from icp's at the default spacing (the learned policy sees one pose node per keyframe).
+
+    python benchmarks/study_keyframes.py [--quick | --smoke]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_frontends import drive_icp, in_fresh_process, new_session, scores  # noqa: E402
+from common import emit, machine, parse_args  # noqa: E402
+
+from explore_rl.config import load_config  # noqa: E402
+from explore_rl.scene.build import make_scene  # noqa: E402
+
+DEFAULT = (0.5, 15.0)
+SPACINGS = [DEFAULT, (0.5, 30.0), (0.5, 45.0), (0.75, 45.0), (1.0, 45.0)]
+
+
+def replay(seed: int, steps: list, frontend: str, spacing: tuple[float, float], draw: int) -> dict:
+    """The recorded steps into a ``frontend`` session at ``spacing`` (metres, degrees)."""
+    config = load_config([f"seed={seed}", "slam=icp", f"slam.keyframe_distance={spacing[0]}",
+                          f"slam.keyframe_angle_deg={spacing[1]}"])
+    config.scene.start_index = config.tour.start_index
+    scene = make_scene(config.scene, config.robot, config.lidar)
+    session = new_session(config, scene, frontend)
+    if draw:
+        session.frontend.rng = np.random.default_rng([seed, 100 + draw])
+        if hasattr(session.loop_closer, "rng"):
+            session.loop_closer.rng = np.random.default_rng([seed, 200 + draw])
+    start = time.perf_counter()
+    for step in steps:
+        session.observe(step)
+    seconds = time.perf_counter() - start
+    travel = steps[-1].travelled if steps else 0.0
+    return {**scores(session, seconds), "explored": session.metrics().explored, "travel_m": travel,
+            "ms_per_metre": 1e3 * seconds / max(travel, 1e-9),
+            "keyframes_per_metre": len(session.keyframes) / max(travel, 1e-9)}
+
+
+def mean(rows: list[dict], key: str) -> float:
+    return float(np.mean([r[key] for r in rows]))
+
+
+def summarise(runs: dict, seeds: list[int]) -> list[dict]:
+    """One row per (front end, spacing): means over seeds and draws; model rows judged
+    against icp at the default spacing."""
+    icp_default = [runs[("icp", DEFAULT)][s][0] for s in seeds]
+    rows = []
+    for (frontend, spacing), per_seed in runs.items():
+        flat = [r for s in seeds for r in per_seed[s]]
+        row = {"frontend": frontend, "keyframe_distance": spacing[0], "keyframe_angle_deg": spacing[1]}
+        for key in ("keyframes", "keyframes_per_metre", "ate_m", "map_error_m", "loop_closures", "explored",
+                    "ms_per_keyframe", "ms_per_metre"):
+            row[key] = round(mean(flat, key), 4)
+        within = {}
+        for key in ("ate_m", "map_error_m", "loop_closures"):
+            values = [r[key] for r in icp_default]
+            within[key] = min(values) <= row[key] <= max(values)
+        row["within_icp_default_spread"] = within
+        row["fidelity_ok"] = all(within.values())
+        row["keyframes_vs_icp_default"] = round(row["keyframes_per_metre"] / mean(icp_default, "keyframes_per_metre"), 3)
+        rows.append(row)
+    return rows
+
+
+def main() -> None:
+    args = parse_args(__doc__.splitlines()[0])
+    seeds, goals_limit, draws, spacings = [0, 1, 2, 3, 4], None, 2, SPACINGS
+    if args.quick:
+        seeds, goals_limit, draws = [0, 1, 2], 6, 1
+    if args.smoke:
+        seeds, goals_limit, draws, spacings = [0], 1, 1, [DEFAULT, (1.0, 45.0)]
+    runs: dict = {}
+    for seed in seeds:
+        steps = in_fresh_process(drive_icp, seed, goals_limit)["steps"]
+        for spacing in spacings:
+            for frontend, n in (("icp", 1), ("model", draws)):
+                rows = [in_fresh_process(replay, seed, steps, frontend, spacing, d) for d in range(n)]
+                runs.setdefault((frontend, spacing), {})[seed] = rows
+                r = rows[0]
+                print(f"seed {seed} {frontend:5s} {spacing[0]:.2f} m {spacing[1]:4.0f} deg: {r['keyframes']:4d} kf  "
+                      f"ATE {r['ate_m']:.3f}  map error {r['map_error_m']:.3f}  closures {r['loop_closures']:3d}  "
+                      f"explored {r['explored']:.3f}  {r['ms_per_metre']:.1f} ms/m", flush=True)
+    table = summarise(runs, seeds)
+    for row in table:
+        print({k: v for k, v in row.items() if k != "within_icp_default_spread"}, flush=True)
+    emit({"study": "keyframes", "quick": args.quick, "smoke": args.smoke, "seeds": seeds, "draws": draws,
+          "machine": machine(), "table": table})
+
+
+if __name__ == "__main__":
+    main()
