@@ -42,6 +42,9 @@ class RewardConfig:
     tie_tolerance: float = 1e-9  # relative spread below which all raw rewards count equal
 
 
+EM_BACKENDS = ("fast", "reference")
+
+
 @dataclass
 class EMConfig:
     """EM-specific settings: the predicted measurements' noise and how U' is computed."""
@@ -62,6 +65,21 @@ class EMConfig:
     # Skip the graph copy for candidates without a predicted loop (exact up to
     # linearisation); false forces the copy for every candidate (slower; for checks).
     shortcut_without_loops: bool = True
+    # How U' is computed: fast = one sparse factorisation of the live graph per decision,
+    # every candidate's marginals as a low-rank update of it (explore_rl/planning/em_fast.py);
+    # reference = a copy of the live iSAM2 per loop candidate and one marginal query per
+    # pose (the baseline of tests and benchmarks).
+    backend: str = "reference"
+    # fast backend: a pose whose (x, y, yaw) covariance changes by less than this fraction
+    # of its norm keeps its landmarks' fused covariances (they are not re-fused).
+    refuse_tolerance: float = 1e-6
+
+    def validate(self) -> None:
+        """One-line errors for values no run can use."""
+        if self.backend not in EM_BACKENDS:
+            raise ValueError(f"planning.em.backend={self.backend!r}: choose {' or '.join(EM_BACKENDS)}")
+        if not 0.0 <= self.refuse_tolerance < 1.0:
+            raise ValueError(f"planning.em.refuse_tolerance={self.refuse_tolerance}: must be in [0, 1)")
 
 
 @dataclass

@@ -31,12 +31,20 @@ from explore_rl.geometry import rotation_2d, se2_between, se2_to_matrix
 from explore_rl.grid import GridSpec
 from explore_rl.planning.actions import Action, PathPrediction, predict_path, select_actions
 from explore_rl.planning.config import EMConfig, PlanningConfig
+from explore_rl.planning.em_fast import (
+    FastContext,
+    congruence,
+    fast_world_covariances,
+    loop_update,
+    refuse_selection,
+)
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.reward import normalize_rewards, raw_reward
 from explore_rl.planning.revisits import Revisit
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     fuse_in_order,
+    information_to_covariances,
     measurement_noise,
     range_bearing_jacobians,
 )
@@ -201,6 +209,10 @@ class Observations:
         noise = h_l_inv @ measurement_noise(vmap.config) @ np.swapaxes(h_l_inv, 1, 2)
         return cls(pose_idx, landmark_idx, h_l_inv @ h_x, noise)
 
+    def subset(self, rows: np.ndarray) -> Observations:
+        """The observations selected by ``rows`` (a mask or indices), order kept."""
+        return Observations(self.pose_idx[rows], self.landmark_idx[rows], self.gain[rows], self.noise[rows])
+
     def shifted(self, offset: int) -> Observations:
         """The same observations with pose indices moved by ``offset``."""
         return Observations(self.pose_idx + offset, self.landmark_idx, self.gain, self.noise)
@@ -215,12 +227,13 @@ class Observations:
         gain = self.gain
         return self.noise + gain @ pose_covs[self.pose_idx] @ np.swapaxes(gain, 1, 2)
 
-    def fuse(self, initial: np.ndarray, pose_covs: np.ndarray) -> np.ndarray:
+    def fuse(self, initial: np.ndarray, pose_covs: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
         """Landmark covariances after fusing every observation into ``initial`` (a copy),
-        in pose order, by covariance intersection (as ``VirtualMap``)."""
+        in pose order, by covariance intersection (as ``VirtualMap``); ``before (M, 3)``
+        receives each landmark's information just before each observation (``fuse_in_order``)."""
         covs = np.array(initial, float)
         if len(self.pose_idx):
-            fuse_in_order(covs, self.landmark_idx, self.landmark_covariances(pose_covs))
+            fuse_in_order(covs, self.landmark_idx, self.landmark_covariances(pose_covs), before)
         return covs
 
 
@@ -242,6 +255,7 @@ class DecisionContext:
     observations: Observations  # what the keyframes see on the virtual map
     landmark_covs: np.ndarray  # (L, 2, 2) the current virtual map
     u0: float
+    fast: FastContext | None = None  # the factorised live graph (planning.em.backend=fast)
 
     @property
     def grid(self) -> GridSpec:
@@ -278,20 +292,29 @@ class EMEvaluation:
         return normalize_rewards(self.raw, self.nearest, planning.reward)
 
 
-def make_decision_context(state: ExplorationState, vmap: VirtualMap) -> DecisionContext:
+def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: str = "reference") -> DecisionContext:
     """Old marginals, what each keyframe sees on the virtual map and the map itself (U0):
-    what every candidate of one decision shares (also the exploration graph's features)."""
+    what every candidate of one decision shares (also the exploration graph's features).
+    ``backend="fast"`` reads the marginals from one factorisation of the live graph and
+    keeps it for the candidates (explore_rl/planning/em_fast.py)."""
     session = state.session
     graph = session.graph
     blocked = session.occupancy.known_occupied
     poses = graph.poses_se2()
-    pose_covs = world_covariances(graph, poses)
+    fast = None
+    if backend == "fast":
+        pose_covs, fast = fast_world_covariances(graph, poses)
+    else:
+        pose_covs = world_covariances(graph, poses)
     observations = Observations.of(vmap, poses, blocked)
-    landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
+    before = None if fast is None else np.zeros((len(observations.pose_idx), 3))
+    landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs, before)
+    if fast is not None:
+        fast.fused_before = before
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
     return DecisionContext(graph, vmap, blocked, float(state.travel),
                            float(session.config.keyframe_distance), poses, pose_covs,
-                           keyframe_travel, observations, landmark_covs, vmap.utility(landmark_covs))
+                           keyframe_travel, observations, landmark_covs, vmap.utility(landmark_covs), fast)
 
 
 # ---------------------------------------------------------------------- the planner
@@ -352,7 +375,7 @@ class EMPlanner:
 
     def decision_context(self, state: ExplorationState) -> DecisionContext:
         """Old marginals, their observations and the current virtual map (U0)."""
-        return make_decision_context(state, self.virtual_map(state.session.occupancy.grid))
+        return make_decision_context(state, self.virtual_map(state.session.occupancy.grid), self.em.backend)
 
     # ------------------------------------------------------------ one candidate
 
@@ -374,7 +397,9 @@ class EMPlanner:
         """``U'``: the virtual map after the predicted keyframes (and loops) join the graph."""
         if len(predicted) == 0:
             return context.u0
-        if predicted.revisits or not self.em.shortcut_without_loops:
+        if (predicted.revisits or not self.em.shortcut_without_loops) and context.fast is not None:
+            covs = self.map_with_low_rank_update(context, predicted)
+        elif predicted.revisits or not self.em.shortcut_without_loops:
             covs = self.map_with_graph_copy(context, predicted)
         else:
             covs = self.map_with_chain(context, predicted)
@@ -395,3 +420,18 @@ class EMPlanner:
         new = Observations.of(context.vmap, predicted.poses, context.blocked)
         observations = context.observations.concatenated(new.shifted(len(context.poses)))
         return observations.fuse(context.vmap.prior_covariances(), all_covs)
+
+    def map_with_low_rank_update(self, context: DecisionContext, predicted: PredictedPath) -> np.ndarray:
+        """Fast backend: the candidate's marginals as a low-rank update of the factorised live
+        graph; only landmarks whose observers' covariance moved are fused again."""
+        covs = loop_update(context, context.fast, predicted, context.graph, self.em, ssm_covariance(self.em),
+                           loop_covariance(self.em))
+        first, rows = refuse_selection(context, covs.old, self.em.refuse_tolerance)
+        affected = first < len(rows)
+        initial = context.landmark_covs.copy()
+        initial[affected] = information_to_covariances(context.fast.fused_before[first[affected]])
+        new = Observations.of(context.vmap, predicted.poses, context.blocked)
+        observations = context.observations.subset(rows).concatenated(new.shifted(len(context.poses)))
+        pose_covs = np.concatenate([covs.old, covs.new])[observations.pose_idx]
+        fuse_in_order(initial, observations.landmark_idx, observations.noise + congruence(observations.gain, pose_covs))
+        return initial

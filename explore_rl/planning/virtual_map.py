@@ -302,13 +302,17 @@ class VirtualMap:
         return np.trace(covs, axis1=-2, axis2=-1).reshape(self.landmark_grid.shape)
 
 
-def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray) -> None:
+def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray,
+                  before: np.ndarray | None = None) -> None:
     """Fuse ``observed[i]`` into ``covs[landmark_idx[i]]`` in place, in index order, by
     covariance intersection (:func:`covariance_intersection`).
 
     The j-th observation of every landmark is fused in round j, all landmarks at once.
     The rounds run on information components (three flat arrays), inverting each
     observation once and each landmark twice, instead of every matrix in every round.
+    ``before (M, 3)``, if given, receives the landmark's information components
+    ``(i00, i01, i11)`` just before each observation is fused in (to resume the fusion
+    from any observation later: :func:`information_to_covariances`).
     """
     if not len(landmark_idx):
         return
@@ -328,7 +332,16 @@ def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarr
         sel = by_round[begin : begin + count]
         begin += count
         rows = slot[landmark_idx[sel]]
-        fused, _ = _ci_fuse([c[rows] for c in info], [c[sel] for c in observed_info])
+        current = [c[rows] for c in info]
+        if before is not None:
+            before[sel] = np.stack(current, axis=-1)
+        fused, _ = _ci_fuse(current, [c[sel] for c in observed_info])
         for component, value in zip(info, fused):
             component[rows] = value
     covs[seen] = _matrix(*_inverse_components(*info))
+
+
+def information_to_covariances(info: np.ndarray) -> np.ndarray:
+    """``(..., 2, 2)`` covariances of information components ``(..., 3)`` = ``(i00, i01, i11)``
+    (as recorded by :func:`fuse_in_order`)."""
+    return _matrix(*_inverse_components(info[..., 0], info[..., 1], info[..., 2]))

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import gtsam
 import numpy as np
+import scipy.sparse as sp
 
 from explore_rl.geometry import se2_to_matrix
 from explore_rl.slam.config import PoseGraphConfig
@@ -346,6 +347,18 @@ class PoseGraph:
             )
 
         return self._cached(("joint", i, j), compute)
+
+    def information_matrix(self) -> sp.csr_matrix:
+        """``(6N, 6N)`` information matrix ``A^T A`` of the whitened linearised system at
+        ``isam.getLinearizationPoint()`` (variables in keyframe order, Pose3 tangent order
+        each): the system whose inverse holds iSAM2's marginals (robust weights included)."""
+        size = 6 * self._num_poses
+        linear = self._isam.getFactorsUnsafe().linearize(self._isam.getLinearizationPoint())
+        rows, cols, values = linear.sparseJacobian_()  # 1-based; the last column is b
+        rows, cols = rows.astype(np.int64) - 1, cols.astype(np.int64) - 1
+        keep = cols < size
+        jacobian = sp.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(int(rows.max()) + 1, size))
+        return (jacobian.T @ jacobian).tocsr()
 
     def _cached(self, name: tuple, compute) -> np.ndarray:
         if name not in self._cache:

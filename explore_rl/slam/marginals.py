@@ -1,0 +1,200 @@
+"""Every keyframe's marginal covariance from one sparse factorisation of the pose graph.
+
+iSAM2 answers one ``marginalCovariance`` query at a time (~50-150 µs each on office
+graphs); a planner that needs all of them, for many hypothetical graphs, pays that per
+pose per graph. Here the live graph's linearised system (its information matrix ``H``,
+``6N x 6N`` in gtsam's Pose3 tangent order, at iSAM2's linearisation point, so the
+marginals equal ``isam.marginalCovariance`` up to round-off) is factorised once with
+``scipy.sparse.linalg.splu`` and then gives
+
+* every 6x6 diagonal block of ``H^-1`` at once (:meth:`SparseMarginals.diagonal_blocks`):
+  Takahashi's selected inversion on the 6x6-block sparsity pattern of the Cholesky-like
+  factor, vectorised over the levels of the block elimination tree -- never the dense
+  joint of all poses (DESIGN.md);
+* a few covariance columns ``H^-1 E_r`` by sparse solves (:meth:`SparseMarginals.columns`),
+  what a low-rank update for a few extra factors needs.
+
+The block ordering is a minimum-degree ordering of the pose adjacency (SuperLU's
+``MMD_AT_PLUS_A`` on the block pattern); with the matrix permuted blockwise, SuperLU
+factorises it in that order without pivoting (``diag_pivot_thresh=0``, symmetric mode),
+so ``L`` is unit lower triangular, ``U = D L^T`` and the 6 scalars of a pose stay together.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+BLOCK = 6  # Pose3 tangent dimension
+
+
+def _splu(matrix: sp.csc_matrix, ordering: str) -> spla.SuperLU:
+    """LU without pivoting (symmetric positive definite input) in ``ordering``."""
+    return spla.splu(matrix, permc_spec=ordering, diag_pivot_thresh=0.0,
+                     options={"SymmetricMode": True})
+
+
+def block_ordering(information: sp.csr_matrix, num_blocks: int) -> np.ndarray:
+    """``order[k]`` = the pose eliminated k-th: minimum degree on the pose adjacency."""
+    blocks = sp.csr_matrix(information).tobsr(blocksize=(BLOCK, BLOCK))
+    pattern = sp.csr_matrix((np.ones(len(blocks.indices)), blocks.indices, blocks.indptr),
+                            shape=(num_blocks, num_blocks))
+    pattern = (pattern + sp.identity(num_blocks, format="csr") * num_blocks).tocsc()
+    lu = _splu(pattern, "MMD_AT_PLUS_A")
+    return np.argsort(lu.perm_c)
+
+
+def scalar_indices(blocks: np.ndarray) -> np.ndarray:
+    """Scalar rows of the 6-blocks ``blocks`` (in the given order)."""
+    return (BLOCK * np.asarray(blocks)[:, None] + np.arange(BLOCK)).ravel()
+
+
+@dataclass
+class _Level:
+    """The block columns of one level of the elimination tree, padded to one width."""
+
+    columns: np.ndarray  # (C,) block columns (factor order)
+    rows: np.ndarray  # (C, S) block rows below the diagonal, padded with -1
+    l_ids: np.ndarray  # (C, S) ids of the blocks L[row, col] in ``factor_blocks`` (pad: the zero block)
+    pair_ids: np.ndarray  # (C, S, S) ids of Z[row_a, row_b] (lower block stored; pad: zero block)
+    pair_transposed: np.ndarray  # (C, S, S) the stored block is Z[row_b, row_a]: transpose it
+    diag_ids: np.ndarray  # (C,) ids of the diagonal blocks
+
+
+class SparseMarginals:
+    """Marginal covariances of a linear Gaussian system ``H x = b`` over 6-vectors.
+
+    ``information`` is ``H`` (``6N x 6N``, symmetric positive definite, variables in
+    pose order). Factorised once at construction.
+    """
+
+    def __init__(self, information: sp.spmatrix) -> None:
+        information = sp.csr_matrix(information)
+        size = information.shape[0]
+        if information.shape != (size, size) or size % BLOCK:
+            raise ValueError(f"information matrix must be square 6N x 6N, got {information.shape}")
+        self.num_blocks = size // BLOCK
+        self.order = block_ordering(information, self.num_blocks)  # factor position -> pose
+        self.position = np.argsort(self.order)  # pose -> factor position
+        scalar = scalar_indices(self.order)
+        permuted = information[scalar][:, scalar].tobsr(blocksize=(BLOCK, BLOCK)).tocsc()
+        self.lu = _splu(permuted, "NATURAL")
+        identity = np.arange(size)
+        if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
+            raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
+        self._columns: dict[int, np.ndarray] = {}
+        self._diagonal: np.ndarray | None = None
+
+    # ------------------------------------------------------------- columns
+
+    def columns(self, poses) -> np.ndarray:
+        """``(6N, 6k)``: the covariance columns of ``poses`` (pose order rows), cached."""
+        poses = [int(p) for p in np.atleast_1d(poses)]
+        missing = [p for p in dict.fromkeys(poses) if p not in self._columns]
+        if missing:
+            rhs = np.zeros((BLOCK * self.num_blocks, BLOCK * len(missing)))
+            rows = scalar_indices(self.position[missing])
+            rhs[rows, np.arange(len(rows))] = 1.0
+            solved = self.lu.solve(rhs)[scalar_indices(self.position)]
+            for k, pose in enumerate(missing):
+                self._columns[pose] = solved[:, BLOCK * k: BLOCK * (k + 1)]
+        if not poses:
+            return np.zeros((BLOCK * self.num_blocks, 0))
+        return np.hstack([self._columns[p] for p in poses])
+
+    def cross_blocks(self, poses) -> np.ndarray:
+        """``(N, k, 6, 6)``: block ``[i, j]`` is ``Cov(x_i, x_{poses[j]})``."""
+        cols = self.columns(poses)
+        return cols.reshape(self.num_blocks, BLOCK, -1, BLOCK).transpose(0, 2, 1, 3)
+
+    # ------------------------------------------------------------- diagonal
+
+    def diagonal_blocks(self) -> np.ndarray:
+        """``(N, 6, 6)`` marginal covariance of every pose (selected inversion), cached."""
+        if self._diagonal is None:
+            self._diagonal = self._selected_inverse()
+        return self._diagonal.copy()
+
+    def _selected_inverse(self) -> np.ndarray:
+        """Takahashi's recurrences on the block pattern of ``L`` (factor order), a level of
+        the block elimination tree at a time, root first:
+
+        ``Z[S, c] = -Z[S, S] L[S, c] L[c, c]^-1`` and
+        ``Z[c, c] = (L[c, c]^-T D_c^-1 - Z[S, c]^T L[S, c]) L[c, c]^-1``,
+        with ``S`` the block rows below the diagonal of column ``c`` (a clique of the
+        filled graph, so every ``Z[S, S]`` it needs is on the pattern and already known).
+        """
+        n = self.num_blocks
+        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(BLOCK, BLOCK))  # row c of L^T = column c of L
+        by_column.sort_indices()
+        indptr, indices = by_column.indptr, by_column.indices
+        # stored block k = L[indices[k], column of k]^T (row block of L^T); Z shares the ids
+        factor_blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, BLOCK, BLOCK))])
+        zero_id = len(indices)
+        column_of = np.repeat(np.arange(n), np.diff(indptr))
+        keys = column_of.astype(np.int64) * n + indices  # sorted: column-major, rows ascending
+        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, BLOCK)
+
+        diag_ids = indptr[:-1]  # first stored block of each column is its diagonal
+        if not np.array_equal(indices[diag_ids], np.arange(n)):
+            raise RuntimeError("factor without a full block diagonal")
+        parent = np.full(n, -1)
+        has_below = np.diff(indptr) > 1
+        parent[has_below] = indices[diag_ids[has_below] + 1]
+        depth = np.zeros(n, dtype=int)
+        for c in range(n - 1, -1, -1):  # parents come after their children
+            if parent[c] >= 0:
+                depth[c] = depth[parent[c]] + 1
+
+        lcc_inv = np.linalg.inv(factor_blocks[diag_ids])
+        below = np.diff(indptr) - 1
+        width_class = np.ceil(np.log2(np.maximum(below, 1))).astype(int)  # pad within a power of two
+        z = np.zeros_like(factor_blocks)
+        for level in range(depth.max() + 1):
+            at_level = depth == level
+            for width in np.unique(width_class[at_level]):
+                columns = np.flatnonzero(at_level & (width_class == width))
+                self._solve_columns(self._level(columns, indptr, indices, keys, zero_id, n),
+                                    factor_blocks, lcc_inv, d_inv, z)
+        return z[diag_ids[self.position]]
+
+    @staticmethod
+    def _solve_columns(lv: _Level, factor_blocks: np.ndarray, lcc_inv: np.ndarray, d_inv: np.ndarray,
+                       z: np.ndarray) -> None:
+        """Takahashi's two recurrences for the block columns of ``lv`` (in place in ``z``)."""
+        c = lv.columns
+        count, width = lv.rows.shape
+        l_sc = factor_blocks[lv.l_ids].reshape(count, width * BLOCK, BLOCK)  # (C, 6S, 6)
+        z_ss = z[lv.pair_ids]  # (C, S, S, 6, 6)
+        z_ss[lv.pair_transposed] = np.swapaxes(z_ss[lv.pair_transposed], -1, -2)
+        z_ss = z_ss.transpose(0, 1, 3, 2, 4).reshape(count, width * BLOCK, width * BLOCK)
+        z_sc = -(z_ss @ l_sc) @ lcc_inv[c]  # (C, 6S, 6)
+        first = np.swapaxes(lcc_inv[c], 1, 2) * d_inv[c][:, None, :]
+        z_cc = (first - np.swapaxes(z_sc, 1, 2) @ l_sc) @ lcc_inv[c]
+        z[lv.diag_ids] = 0.5 * (z_cc + np.swapaxes(z_cc, 1, 2))
+        valid = lv.rows >= 0
+        z[lv.l_ids[valid]] = z_sc.reshape(count, width, BLOCK, BLOCK)[valid]
+
+    @staticmethod
+    def _level(columns, indptr, indices, keys, zero_id, n) -> _Level:
+        """Padded index arrays for the block columns ``columns`` of one level."""
+        counts = np.diff(indptr)[columns] - 1  # below-diagonal blocks
+        width = max(int(counts.max()), 1) if len(columns) else 1
+        slot = np.arange(width)
+        valid = slot[None, :] < counts[:, None]
+        ids = np.where(valid, indptr[columns][:, None] + 1 + slot[None, :], zero_id)
+        rows = np.where(valid, indices[np.minimum(ids, len(indices) - 1)], -1)
+        a, b = rows[:, :, None], rows[:, None, :]
+        pair_valid = valid[:, :, None] & valid[:, None, :]
+        high, low = np.maximum(a, b), np.minimum(a, b)
+        pair_keys = np.where(pair_valid, low.astype(np.int64) * n + high, -1)
+        found = np.searchsorted(keys, pair_keys)
+        found = np.minimum(found, len(keys) - 1)
+        ok = pair_valid & (keys[found] == pair_keys)
+        if not np.array_equal(ok, pair_valid):
+            raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
+        pair_ids = np.where(ok, found, zero_id)
+        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns])

@@ -1,0 +1,96 @@
+"""Sparse marginals: one factorisation of the pose graph against iSAM2's own queries."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from explore_rl.geometry import se2_between
+from explore_rl.slam.config import PoseGraphConfig
+from explore_rl.slam.marginals import SparseMarginals
+from explore_rl.slam.pose_graph import PoseGraph, key
+
+LOOP_COV = np.diag([1e-4] * 3 + [0.05**2] * 3)
+
+
+def looped_graph(seed: int = 0, laps: int = 3, per_lap: int = 40) -> PoseGraph:
+    """Noisy laps of a square with loops back to the first lap (and a few spans > 1)."""
+    rng = np.random.default_rng(seed)
+    angles = np.linspace(0, 2 * np.pi, per_lap, endpoint=False)
+    truth = np.array([[5 + 4 * np.cos(a), 5 + 4 * np.sin(a), a + np.pi / 2] for a in angles] * laps)
+    graph = PoseGraph(PoseGraphConfig(), truth[0])
+    for k in range(1, len(truth)):
+        delta = se2_between(truth[k - 1], truth[k]) + rng.normal(0, [0.01, 0.01, 0.002])
+        graph.add_keyframe(delta, 3)
+        if k >= per_lap and k % 7 == 0:  # loop to the same place one lap earlier (noisy)
+            relative = se2_between(truth[k - per_lap], truth[k]) + rng.normal(0, [0.02, 0.02, 0.005])
+            graph.add_loop_closure(k - per_lap, k, relative, LOOP_COV, "pose_matching")
+        if k % 11 == 0:  # a factor skipping a keyframe
+            graph.add_loop_closure(k - 2, k, se2_between(truth[k - 2], truth[k]), LOOP_COV, "segment_matching")
+    return graph
+
+
+@pytest.fixture(scope="module")
+def graph() -> PoseGraph:
+    return looped_graph()
+
+
+def isam_marginals(graph: PoseGraph) -> np.ndarray:
+    return np.stack([graph.isam.marginalCovariance(key(i)) for i in range(graph.num_poses)])
+
+
+def test_information_matrix_is_symmetric_positive_definite(graph):
+    information = graph.information_matrix()
+    assert information.shape == (6 * graph.num_poses,) * 2
+    assert abs(information - information.T).max() < 1e-9 * abs(information).max()
+    # sparse: a few blocks per pose, nothing like the dense joint
+    assert information.nnz < 20 * 36 * graph.num_poses
+    smallest = sp.linalg.eigsh(information.tocsc(), k=1, sigma=0, which="LM", return_eigenvectors=False)
+    assert smallest[0] > 0
+
+
+def test_diagonal_blocks_equal_isam_marginals(graph):
+    expected = isam_marginals(graph)
+    blocks = SparseMarginals(graph.information_matrix()).diagonal_blocks()
+    scale = np.abs(expected).max(axis=(1, 2), keepdims=True)
+    np.testing.assert_allclose(blocks / scale, expected / scale, rtol=0, atol=1e-8)
+
+
+def test_columns_equal_isam_joint_marginals(graph):
+    marginals = SparseMarginals(graph.information_matrix())
+    poses = [0, 37, graph.num_poses - 1]
+    cross = marginals.cross_blocks(poses)
+    assert cross.shape == (graph.num_poses, 3, 6, 6)
+    for other in (5, 60, graph.num_poses - 2):
+        for j, pose in enumerate(poses):
+            joint = graph.isam.jointMarginalCovariance([key(other), key(pose)])
+            expected = joint.at(key(other), key(pose)) if other != pose else joint.at(key(pose), key(pose))
+            scale = np.abs(expected).max()
+            np.testing.assert_allclose(cross[other, j] / scale, expected / scale, rtol=0, atol=1e-8)
+
+
+def test_selected_inverse_of_a_random_sparse_system():
+    """Against the dense inverse of a small random SPD block system (tree + cycles)."""
+    rng = np.random.default_rng(4)
+    n = 30
+    blocks = {}
+    edges = [(i, i + 1) for i in range(n - 1)] + [(0, 17), (3, 25), (10, 29), (12, 20)]
+    dense = np.zeros((6 * n, 6 * n))
+    for i, j in edges:
+        a = rng.normal(size=(12, 12))
+        info = a @ a.T
+        idx = np.r_[6 * i: 6 * i + 6, 6 * j: 6 * j + 6]
+        dense[np.ix_(idx, idx)] += info
+        blocks[(i, j)] = info
+    dense += np.eye(6 * n)
+    marginals = SparseMarginals(sp.csr_matrix(dense))
+    inverse = np.linalg.inv(dense)
+    expected = np.stack([inverse[6 * i: 6 * i + 6, 6 * i: 6 * i + 6] for i in range(n)])
+    np.testing.assert_allclose(marginals.diagonal_blocks(), expected, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(marginals.columns([17, 3]), inverse[:, np.r_[102:108, 18:24]], rtol=1e-9, atol=1e-12)
+
+
+def test_bad_shape_fails_in_one_line():
+    with pytest.raises(ValueError, match="6N x 6N"):
+        SparseMarginals(sp.identity(7, format="csr"))
