@@ -82,7 +82,9 @@ class BuildingPlan:
         return [d.regions for d in self.doors] + list(self.joins)
 
     def stats(self) -> dict:
-        """Structure statistics: size, rooms, halls, corridors, doors, loops, dead ends, clutter."""
+        """Structure statistics: size, rooms, halls, corridors, doors, loops (independent cycles
+        of the region graph; ``corridor_loops``: of the corridors alone), dead ends (regions
+        with one door or join), clutter, starts, free fraction, the attempt that passed."""
         n = len(self.kinds)
         degree = np.bincount(np.array(self.edges(), dtype=int).ravel(), minlength=n)
         sx, sy = self.layout.size
@@ -90,7 +92,8 @@ class BuildingPlan:
             "size_x": sx, "size_y": sy, "area": sx * sy, "corridor": self.corridor,
             "rooms": self.kinds.count(ROOM), "halls": self.kinds.count(HALL),
             "corridors": self.kinds.count(CORRIDOR), "doors": len(self.doors),
-            "loops": graph_cycles(n, self.edges()), "dead_ends": int(np.sum(degree == 1)),
+            "loops": graph_cycles(n, self.edges()), "corridor_loops": graph_cycles(n, list(self.joins)),
+            "dead_ends": int(np.sum(degree == 1)),
             "objects": len(self.layout.boxes) + len(self.layout.cylinders),
             "starts": len(self.layout.starts), "free_fraction": self.free_fraction,
             "attempt": self.attempt,
@@ -426,20 +429,21 @@ def choose_starts(rng: np.random.Generator, base: Layout, labels: np.ndarray, ki
     Candidates are raster cell centres at least ``clearance`` from every wall.
     """
     m = b.module
-    iy, ix = np.indices(labels.shape)
-    centers = np.stack([(ix + 0.5) * m, (iy + 0.5) * m], axis=-1)
-    ok = base.geometry().signed_distance(centers) >= clearance
+    geometry = base.geometry()
     corridors = [r for r, k in enumerate(kinds) if k == CORRIDOR]
     others = [r for r in rng.permutation(len(kinds)) if kinds[r] != CORRIDOR]
     order = [corridors[int(rng.integers(len(corridors)))]] + others + [r for r in rng.permutation(corridors)]
     starts: list[tuple[float, float, float]] = []
     used: set[int] = set()
     for region in order:
-        cells = np.argwhere(ok & (labels == region))
-        if region in used or not len(cells):
+        if region in used:
             continue
-        y, x = cells[int(rng.integers(len(cells)))]
-        starts.append((float(centers[y, x, 0]), float(centers[y, x, 1]), float(rng.uniform(-np.pi, np.pi))))
+        centers = (np.argwhere(labels == region)[:, ::-1] + 0.5) * m  # (x, y) of the region's cells
+        centers = centers[geometry.signed_distance(centers) >= clearance]
+        if not len(centers):
+            continue
+        x, y = centers[int(rng.integers(len(centers)))]
+        starts.append((float(x), float(y), float(rng.uniform(-np.pi, np.pi))))
         used.add(int(region))
         if len(starts) == b.num_starts:
             break

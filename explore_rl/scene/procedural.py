@@ -141,8 +141,13 @@ def place_random_objects(
     seed_offset: int = 0,
     max_attempts: int = 10_000,
 ) -> Layout:
-    """Rejection-sample ``config.num_objects`` objects clear of solids, starts and each other."""
+    """Rejection-sample ``config.num_objects`` objects clear of solids, starts and each other.
+
+    The base's geometry is built once and the placed objects' only when one is added (the
+    clearance is the smaller of the two), so a try costs two distance queries.
+    """
     rng = np.random.default_rng([config.seed, seed_offset])
+    fixed, placed = Geometry2D.from_layout(base), Geometry2D()
     boxes, cylinders = list(base.boxes), list(base.cylinders)
     starts_xy = np.array([s[:2] for s in base.starts]).reshape(-1, 2)
     sx, sy = base.size
@@ -154,13 +159,16 @@ def place_random_objects(
         radius = footprint_radius(obj)
         margin = radius + config.object_clearance
         center = (float(rng.uniform(margin, sx - margin)), float(rng.uniform(margin, sy - margin)))
-        current = replace(base, boxes=tuple(boxes), cylinders=tuple(cylinders))
-        clear_of_solids = Geometry2D.from_layout(current).signed_distance(np.array(center)) >= margin
+        xy = np.array(center)
+        clear_of_solids = min(fixed.signed_distance(xy), placed.signed_distance(xy)) >= margin
         clear_of_starts = np.all(
             np.linalg.norm(starts_xy - center, axis=1) >= radius + config.start_clearance
         )
         if clear_of_solids and clear_of_starts:
             (cylinders if isinstance(obj, Cylinder) else boxes).append(moved(obj, center))
+            new = Layout(base.name, base.size, boxes=tuple(boxes[len(base.boxes):]),
+                         cylinders=tuple(cylinders[len(base.cylinders):]), perimeter=False)
+            placed = Geometry2D.from_layout(new)
     if len(boxes) + len(cylinders) < target:
         raise RuntimeError(
             f"could not place {config.num_objects} objects in scene {base.name!r}: "
