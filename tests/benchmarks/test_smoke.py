@@ -15,6 +15,9 @@ from tests.benchmarks.smoke import run_script
 
 # script, extra arguments ({tmp} = the test's tmp dir), keys the JSON last line must hold
 SCRIPTS = [
+    ("benchmarks/bench_building.py", [], ["ms_plan", "ms_compile", "ms_plan_compile", "office_ms_plan_compile",
+                                          "plan_compile_ratio_vs_office", "ngeom_median", "lidar_ms_scan_building",
+                                          "lidar_ms_scan_office"]),
     ("benchmarks/bench_collect.py", [], ["dps_1", "dps_2", "scaling", "one_worker", "two_workers"]),
     ("benchmarks/bench_decision.py", [], ["ms_em", "ms_nearest", "poses", "candidates", "growth", "ms_learned",
                                           "ms_learned_graph", "ms_learned_forward", "learned_actor"]),
@@ -27,6 +30,8 @@ SCRIPTS = [
     ("benchmarks/bench_lidar.py", [], ["results", "all_meet_4_mrays_per_s"]),
     ("benchmarks/bench_slam.py", [], ["keyframes_per_s", "ate_m", "ate_m_no_loops", "ate_m_odometry",
                                       "map_error_m", "loop_closures", "false_loop_closures", "attempts"]),
+    ("benchmarks/study_buildings.py", ["--out", "{tmp}/buildings"], ["loop_fraction", "tree_fraction", "fractions",
+                                                                     "medians", "contact_sheet"]),
     ("benchmarks/study_inflation.py", [], ["baseline", "per_variant", "table"]),
     ("benchmarks/study_ordering.py", ["--out", "{tmp}/ordering"], ["table", "checks", "plots"]),
     ("benchmarks/sweep_alpha.py", [], ["nearest_travel_m", "nearest_map_error_m", "rows", "chosen_alpha"]),
@@ -42,6 +47,8 @@ SCRIPTS = [
 
 # files the smoke run must have written into the tmp dir
 OUTPUTS = {
+    "benchmarks/study_buildings.py": ["buildings/contact_sheet.png", "buildings/buildings.csv",
+                                      "buildings/summary.json", "buildings/table.md"],
     "benchmarks/study_ordering.py": ["ordering/ordering_table.md", "ordering/ordering_runs.jsonl",
                                      "ordering/ordering_street.png"],
     "scripts/calibrate_loop_closures.py": ["loop_closures.yaml", "attempts.csv"],
