@@ -42,6 +42,9 @@ from explore_rl.local_planner import validate as validate_safety
 
 log = logging.getLogger(__name__)
 
+MIN_STEP_DISTANCE = 1e-3  # m: the smallest robot.step_distance validate() accepts
+MIN_STEP_ANGLE_DEG = 0.1  # deg: the smallest robot.step_angle_deg
+
 
 @dataclass
 class RobotConfig:
@@ -70,9 +73,11 @@ class RobotConfig:
     def validate(self) -> None:
         """Values path following can work with (a zero tolerance or turn step never ends a
         waypoint; a negative or NaN noise breaks the motion model); one line per bad key."""
-        for key in ("radius", "speed", "turn_rate_deg", "step_distance", "waypoint_tolerance", "path_step_factor"):
+        for key in ("radius", "speed", "turn_rate_deg", "waypoint_tolerance", "path_step_factor"):
             checks.positive(f"robot.{key}", getattr(self, key))
-        checks.in_range("robot.step_angle_deg", self.step_angle_deg, 0.0, 180.0, low_open=True)
+        # motion steps of at least 1 mm / 0.1 deg: smaller ones make a path take millions of steps
+        checks.in_range("robot.step_distance", self.step_distance, MIN_STEP_DISTANCE, 10.0)
+        checks.in_range("robot.step_angle_deg", self.step_angle_deg, MIN_STEP_ANGLE_DEG, 180.0)
         checks.in_range("robot.heading_tolerance_deg", self.heading_tolerance_deg, 0.0, 180.0, low_open=True)
         for key in ("noise_xy", "noise_yaw_deg"):
             checks.non_negative(f"robot.{key}", getattr(self, key))
@@ -200,6 +205,8 @@ class Robot:
         cfg = self.config
         points = np.vstack([self.belief_pose[:2], np.asarray(waypoints, dtype=float).reshape(-1, 2)])
         length = float(np.hypot(*np.diff(points, axis=0).T).sum())
+        if not (cfg.step_distance > 0 and cfg.step_angle_deg > 0):  # unvalidated sizes: the slack alone
+            return int(cfg.path_step_slack)
         needed = length / cfg.step_distance + (len(points) - 1) * 180.0 / cfg.step_angle_deg
         return int(np.ceil(cfg.path_step_factor * needed)) + int(cfg.path_step_slack)
 

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from explore_rl.geometry import se2_between, se2_compose
+from explore_rl.local_planner import LocalPlanner, SafetyConfig
 from explore_rl.robot import EscapeConfig, PathStatus, Robot, RobotConfig
 
 
@@ -177,3 +178,62 @@ def test_contacts_and_the_least_true_clearance_are_counted(rng):
     unmeasured = Robot(RobotConfig(), np.zeros(3), is_free, rng)
     list(unmeasured.follow(np.array([[3.0, 0.0]])))
     assert unmeasured.contacts == 1 and unmeasured.min_clearance == float("inf")
+
+
+# ---------------------------------------------------------------- step cap (issue 20 item 3)
+
+
+@pytest.mark.parametrize("guarded", [False, True], ids=["without_layer", "with_layer"])
+@pytest.mark.parametrize("overrides", [
+    {"waypoint_tolerance": -0.1},
+    {"step_angle_deg": 0.0, "noise_xy": 0.0, "noise_yaw_deg": 0.0},
+])
+def test_follow_ends_a_path_that_never_arrives_as_blocked_at_the_step_cap(overrides, guarded, rng, caplog):
+    """Settings (which validate() rejects) under which the old ``follow`` looped forever,
+    with the safety layer (here seeing nothing) or without: now the path ends blocked at
+    the cap, with a warning that says why."""
+    config = RobotConfig(**overrides)
+    guard = LocalPlanner(SafetyConfig(), config, lambda pose: np.zeros((0, 2))) if guarded else None
+    robot = Robot(config, np.array([0.0, 0.0, 0.0]), open_floor, rng, guard=guard)
+    waypoints = np.array([[1.0, 0.5], [2.0, 1.5]])
+    cap = robot.step_cap(waypoints)
+    with caplog.at_level("WARNING", logger="explore_rl.robot"):
+        steps = list(robot.follow(waypoints))
+    assert robot.status is PathStatus.BLOCKED
+    assert len(steps) == cap and robot.capped_paths == 1
+    assert "path ended as blocked" in caplog.text and "path_step_factor" in caplog.text
+
+
+def test_step_cap_scales_with_the_path_and_does_not_bind_on_normal_paths(rng):
+    """Cap = factor x (length / step + a half turn per waypoint / step angle) + slack; a
+    normal path takes far fewer steps, and the cap changes none of them."""
+    config = RobotConfig()
+    robot = Robot(config, np.array([0.0, 0.0, 0.0]), open_floor, rng)
+    waypoints = np.array([[3.0, 0.0], [3.0, 4.0]])
+    needed = 7.0 / config.step_distance + 2 * 180.0 / config.step_angle_deg
+    assert robot.step_cap(waypoints) == int(np.ceil(config.path_step_factor * needed)) + config.path_step_slack
+    uncapped = Robot(RobotConfig(path_step_factor=1e9), np.zeros(3), open_floor, np.random.default_rng(5))
+    capped = Robot(config, np.zeros(3), open_floor, np.random.default_rng(5))
+    steps = [s.true_pose for s in capped.follow(waypoints)]
+    reference = [s.true_pose for s in uncapped.follow(waypoints)]
+    assert capped.status is PathStatus.REACHED and capped.capped_paths == 0
+    assert len(steps) < capped.step_cap(waypoints) / 5
+    np.testing.assert_array_equal(np.array(steps), np.array(reference))
+
+
+@pytest.mark.parametrize("key,value,message", [
+    ("waypoint_tolerance", 0.0, "robot.waypoint_tolerance must be positive"),
+    ("waypoint_tolerance", -0.1, "robot.waypoint_tolerance must be positive"),
+    ("step_angle_deg", 0.0, r"robot.step_angle_deg must be in \[0.1, 180\]"),
+    ("step_distance", 1e-5, r"robot.step_distance must be in \[0.001, 10\]"),
+    ("heading_tolerance_deg", 0.0, r"robot.heading_tolerance_deg must be in \(0, 180\]"),
+    ("turn_rate_deg", 0.0, "robot.turn_rate_deg must be positive"),
+    ("noise_xy", -0.01, "robot.noise_xy must be >= 0"),
+    ("noise_yaw_deg", float("nan"), "robot.noise_yaw_deg must be >= 0"),
+    ("path_step_factor", 0.0, "robot.path_step_factor must be positive"),
+    ("body_size", [0.5, 0.4], r"robot.body_size must be three positive sizes"),
+])
+def test_robot_config_validate_names_the_key_and_range(key, value, message):
+    RobotConfig().validate()
+    with pytest.raises(ValueError, match=message):
+        RobotConfig(**{key: value}).validate()
