@@ -155,9 +155,8 @@ def corridor_raster(rng: np.random.Generator, shape: tuple[int, int], kind: str,
     transpose = bool(rng.random() < 0.5)
     ny, nx = shape[::-1] if transpose else shape
     m = b.module
-    cw = int(rng.integers(int(np.ceil(b.corridor_min_width / m - 1e-9)),
-                          int(np.floor(b.corridor_max_width / m + 1e-9)) + 1))
-    rmin = int(np.ceil(b.room_min_side / m - 1e-9))
+    cw = int(rng.integers(cells(b.corridor_min_width, m), cells(b.corridor_max_width, m, up=False) + 1))
+    rmin = cells(b.room_min_side, m)
     bands = {"straight": straight_bands, "L": l_bands, "loop": loop_bands, "tree": tree_bands}[kind](
         rng, ny, nx, cw, rmin, b)
     labels = np.full((ny, nx), -1, dtype=int)
@@ -245,23 +244,41 @@ def fill_rooms(rng: np.random.Generator, labels: np.ndarray, kinds: list[str],
                b: BuildingConfig) -> tuple[np.ndarray, list[str]]:
     """Give every non-corridor cell a room (or hall) region; see the module docstring, step 3."""
     labels, kinds = labels.copy(), list(kinds)
-    rmin = int(np.ceil(b.room_min_side / b.module - 1e-9))
-    rmax = int(np.floor(b.room_max_side / b.module + 1e-9))
+    rmin, rmax = cells(b.room_min_side, b.module), cells(b.room_max_side, b.module, up=False)
+    hall_min, hall_max = cells(b.hall_min_side, b.module), cells(b.hall_max_side, b.module, up=False)
     rects = rectangles(labels < 0)
-    whole = [r for r in rects if min(r[1] - r[0], r[3] - r[2]) >= rmin]
+    whole = [r for r in rects if min_side(r) >= rmin]
     slivers = [r for r in rects if r not in whole]
     hall = None
-    hall_side = int(np.ceil(b.hall_min_side / b.module - 1e-9))
-    if rng.random() < b.hall_probability:
-        candidates = [r for r in whole if min(r[1] - r[0], r[3] - r[2]) >= hall_side]
-        if candidates:
-            hall = max(candidates, key=lambda r: (r[1] - r[0]) * (r[3] - r[2]))
+    candidates = [r for r in whole if min_side(r) >= hall_min]
+    if candidates and rng.random() < b.hall_probability:
+        largest = max(candidates, key=area)
+        pieces = bsp(rng, largest, rmin, hall_max)  # no hall side above hall_max_side
+        hall = max(pieces, key=area)
+        if min_side(hall) >= hall_min:
+            whole.remove(largest)
+            whole += pieces
+        else:
+            hall = None
     for rect in whole:
         for y0, y1, x0, x1 in ([rect] if rect == hall else bsp(rng, rect, rmin, rmax)):
             labels[y0:y1, x0:x1] = len(kinds)
             kinds.append(HALL if rect == hall else ROOM)
     merge_slivers(labels, slivers)
     return labels, kinds
+
+
+def cells(length: float, module: float, up: bool = True) -> int:
+    """``length`` in raster cells, rounded up (a minimum) or down (a maximum)."""
+    return int(np.ceil(length / module - 1e-9)) if up else int(np.floor(length / module + 1e-9))
+
+
+def min_side(rect: Rect) -> int:
+    return min(rect[1] - rect[0], rect[3] - rect[2])
+
+
+def area(rect: Rect) -> int:
+    return (rect[1] - rect[0]) * (rect[3] - rect[2])
 
 
 def rectangles(mask: np.ndarray) -> list[Rect]:
@@ -349,7 +366,7 @@ def boundary_runs(labels: np.ndarray, depth: int = 1) -> dict[tuple[int, int], l
 
 def door_depth(b: BuildingConfig) -> int:
     """Cells of the same region a door needs on each side: the narrowest door's width."""
-    return int(np.ceil(b.door_min_width / b.module - 1e-9))
+    return cells(b.door_min_width, b.module)
 
 
 def choose_doors(rng: np.random.Generator, runs: dict[tuple[int, int], list[Run]], kinds: list[str],

@@ -34,6 +34,7 @@ class BuildingConfig:
     room_max_side: float = 9.0  # larger zones are cut (BSP) until every side is below
     hall_probability: float = 0.35  # the plan keeps its largest zone as one open hall
     hall_min_side: float = 6.0
+    hall_max_side: float = 16.0  # a larger zone is cut first; the hall is its largest piece
     door_min_width: float = 1.0  # >= 2 (robot.radius + footprint_margin), checked
     door_max_width: float = 1.6
     door_jamb: float = 0.3  # wall kept on each side of a door (no door flush in a corner)
@@ -96,7 +97,7 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
     ``ValueError`` naming the key, the allowed range and what it depends on."""
     b, wall_thickness, key = scene.building, scene.wall_thickness, "scene.building."
     for name in ("size_min", "size_max", "module", "corridor_min_width", "corridor_max_width", "room_min_side",
-                 "room_max_side", "hall_min_side", "door_min_width", "door_max_width", "door_jamb", "table_height"):
+                 "room_max_side", "hall_min_side", "hall_max_side", "door_min_width", "door_max_width", "door_jamb", "table_height"):
         checks.positive(key + name, getattr(b, name))
     for name in ("footprint_margin", "room_door_penalty", "clutter_density"):
         checks.non_negative(key + name, getattr(b, name))
@@ -118,6 +119,8 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
         ("room_min_side", b.room_min_side, 2 * b.module, "2 scene.building.module"),
         ("room_max_side", b.room_max_side, 2 * b.room_min_side, "2 scene.building.room_min_side (to cut a zone)"),
         ("hall_min_side", b.hall_min_side, b.room_min_side, "scene.building.room_min_side"),
+        ("hall_max_side", b.hall_max_side, max(b.hall_min_side, 2 * b.room_min_side),
+         "scene.building.hall_min_side and 2 scene.building.room_min_side"),
         ("door_jamb", b.door_jamb, wall_thickness / 2, "scene.wall_thickness / 2"),
         ("size_min", b.size_min, 3 * b.room_min_side + 2 * b.corridor_max_width,
          "3 scene.building.room_min_side + 2 scene.building.corridor_max_width (a loop corridor fits)"),

@@ -69,6 +69,13 @@ def test_the_seed_changes_the_structure_not_only_the_objects(plans):
     rooms = [s["rooms"] for s in stats]
     assert max(rooms) - min(rooms) >= 10
     assert any(s["halls"] for s in stats) and not all(s["halls"] for s in stats)
+    b = BuildingConfig()
+    for plan in plans.values():  # halls within [hall_min_side, hall_max_side] a side (+ a sliver merged in)
+        for region in np.flatnonzero(np.array(plan.kinds) == "hall"):
+            rows, cols = np.nonzero(plan.labels == region)
+            sides = np.array([np.ptp(rows) + 1, np.ptp(cols) + 1]) * b.module
+            assert b.hall_min_side - 1e-9 <= sides.min()
+            assert sides.max() <= b.hall_max_side + b.room_min_side - b.module + 1e-9
     loops = np.array([s["loops"] for s in stats])
     assert 0.2 < np.mean(loops > 0) < 0.8  # both plans that close loops and tree-like plans
     sizes = np.array([plan.layout.size for plan in plans.values()])
@@ -224,6 +231,7 @@ BAD_VALUES = [
     ("room_max_side", 5.0, "room_max_side=5.0 must be >= 2 scene.building.room_min_side"),
     ("hall_probability", -0.1, "hall_probability must be in \\[0, 1\\]"),
     ("hall_min_side", 2.0, "hall_min_side=2.0 must be >= scene.building.room_min_side"),
+    ("hall_max_side", 5.0, "hall_max_side=5.0 must be >= scene.building.hall_min_side and 2"),
     ("door_min_width", 0.9, "door_min_width=0.9 must be >= 2 \\(robot.radius"),
     ("door_max_width", 0.95, "door_max_width=0.95 must be >= scene.building.door_min_width"),
     ("door_jamb", 0.05, "door_jamb=0.05 must be >= scene.wall_thickness / 2"),
