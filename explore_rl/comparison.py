@@ -107,9 +107,11 @@ def make_trials(config: Config, policies: Sequence[str], trials: int) -> list[Tr
 
 
 def scene_label(config: Config) -> str:
-    """The scene's name (a scene file's stem for ``scene=file``)."""
+    """The scene's name (a scene file's stem for ``scene=file``, ``building_<seed>`` for a building)."""
     if config.scene.name == "file" and config.scene.path:
         return Path(config.scene.path).stem
+    if config.scene.name == "building":  # one plan per seed: keep them apart in a sweep
+        return f"building_{config.scene.seed}"
     return config.scene.name
 
 
