@@ -41,7 +41,7 @@ import torch
 
 from explore_rl.graph.encode import EncodedGraph, encode
 from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph
-from explore_rl.models.actor_file import ActorFile, export_actor_file, load_actor
+from explore_rl.models.actor_file import ActorFile, check_output_file, export_actor_file, load_actor
 from explore_rl.models.export import ExportedActor, export_actor
 from explore_rl.trainer.checkpoint import CheckpointError
 
@@ -172,12 +172,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--program", help="also write the torch.export program here (e.g. actor.pt2)")
     args = parser.parse_args(argv)
     try:
+        if args.program:
+            check_output_file(args.program, "actor.pt2")  # before anything is written
         path = export_actor_file(args.checkpoint, args.out)
         size = path.stat().st_size / 2**20
         print(f"wrote {path} ({size:.1f} MB)")
         if args.program:
             print(f"wrote {export_program(path, args.program)}")
-    except CheckpointError as error:
+    except ValueError as error:  # CheckpointError, or an output path that is a folder
         print(f"error: {error}", file=sys.stderr)
         sys.exit(2)
 

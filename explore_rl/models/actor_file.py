@@ -103,8 +103,29 @@ def build_actor(path: str | Path, actor_file: ActorFile, expected_model: ModelCo
     except ValueError as error:  # e.g. feature_scale of the wrong length
         raise CheckpointError(f"{path}: {error}") from None
     check_weights(path, "actor", actor_file.weights, actor)
+    check_finite(path, actor_file.weights)
     actor.load_state_dict(actor_file.weights)
     return actor.eval()
+
+
+def check_finite(path: str | Path, weights: dict[str, torch.Tensor]) -> None:
+    """Every weight finite: a NaN or inf (a diverged run) would make every logit NaN and the
+    policy silently choose like the nearest frontier."""
+    bad = [key for key, tensor in weights.items()
+           if torch.is_tensor(tensor) and tensor.is_floating_point() and not bool(torch.isfinite(tensor).all())]
+    if bad:
+        raise CheckpointError(f"{path}: actor weight {bad[0]!r} holds NaN or inf ({len(bad)} of {len(weights)} "
+                              "tensors are not finite; the training diverged): use an earlier checkpoint")
+
+
+def check_output_file(path: str | Path, example: str = "actor.pt") -> Path:
+    """``path`` names a file that can be written (not a folder): ValueError in one line."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder: give the file to write, e.g. {path / example}")
+    if path.parent.exists() and not path.parent.is_dir():
+        raise ValueError(f"{path}: {path.parent} is a file, not a folder")
+    return path
 
 
 def load_actor(path: str | Path | None = None, expected_model: ModelConfig | None = None
@@ -118,8 +139,9 @@ def load_actor(path: str | Path | None = None, expected_model: ModelConfig | Non
 
 
 def save_actor_file(path: str | Path, actor_file: ActorFile) -> Path:
-    """Write ``actor_file`` atomically (a temporary file renamed into place)."""
-    path = Path(path)
+    """Write ``actor_file`` atomically (a temporary file renamed into place; removed again
+    if writing fails). ValueError if ``path`` is a folder."""
+    path = check_output_file(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     payload = {
         "format": ACTOR_FORMAT,
@@ -130,8 +152,11 @@ def save_actor_file(path: str | Path, actor_file: ActorFile) -> Path:
         "meta": actor_file.meta,
     }
     partial = path.with_name(path.name + ".tmp")
-    torch.save(payload, partial)
-    os.replace(partial, path)
+    try:
+        torch.save(payload, partial)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
     return path
 
 
@@ -139,6 +164,7 @@ def export_actor_file(checkpoint: str | Path, out: str | Path) -> Path:
     """An actor file at ``out`` from a training checkpoint (or another actor file), checked
     by loading it back."""
     checkpoint = Path(checkpoint)
+    check_output_file(out)
     actor_file = read_actor_file(checkpoint)
     build_actor(checkpoint, actor_file)  # the weights fit the model before anything is written
     path = save_actor_file(out, actor_file)

@@ -35,6 +35,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from explore_rl.models.actor_critic import GraphActor
+from explore_rl.models.actor_file import check_output_file
 from explore_rl.models.graph_unet import IMPROVED_SELF_LOOP_WEIGHT
 
 # Smallest node count the program accepts: each of the 3 pooling levels must keep >= 2
@@ -143,6 +144,8 @@ def export_actor(actor: GraphActor, path: str | Path | None = None,
     ``2 ** depth``, see :func:`pad_for_program`); saved to ``path`` (``torch.export.save``,
     conventionally ``*.pt2``) if given, with the padding size of training
     (``graph_max_nodes``) for the deployment's encoder."""
+    if path is not None:
+        check_output_file(path, "actor.pt2")
     module = ExportableActor(actor).eval()
     multiple = 2 ** actor.unet.depth
     n = max(MIN_NODES, 4 * multiple)

@@ -113,3 +113,53 @@ def test_a_different_feature_count_is_named(tmp_path):
     save_actor_file(path, dataclasses.replace(contents, weights=weights))
     with pytest.raises(CheckpointError, match=r"a different feature count"):
         load_actor(path)
+
+
+# ---------------------------------------------------------------- issue 20 item 5
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
+def test_non_finite_weights_are_rejected_in_one_line(tmp_path, bad):
+    path, _ = actor_file(tmp_path)
+    contents = read_actor_file(path)
+    weights = dict(contents.weights)
+    key = "unet.down_convs.0.lin.weight"
+    weights[key] = weights[key].clone()
+    weights[key][0, 0] = bad
+    save_actor_file(path, dataclasses.replace(contents, weights=weights))
+    with pytest.raises(CheckpointError, match=r"actor\.pt: actor weight 'unet\.down_convs\.0\.lin\.weight' "
+                                              r"holds NaN or inf \(1 of \d+ tensors") as error:
+        load_actor(path)
+    one_line(error)
+
+
+def test_export_to_a_folder_fails_in_one_line_and_leaves_no_temporary_file(tmp_path, capsys):
+    from explore_rl.deploy import main
+
+    path, _ = actor_file(tmp_path)
+    target = tmp_path / "policies"
+    target.mkdir()
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    with pytest.raises(SystemExit) as exit_info:
+        main([str(path), str(target)])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: {target} is a folder: give the file to write, e.g. {target / 'actor.pt'}"
+    with pytest.raises(SystemExit):
+        main([str(path), str(tmp_path / "out.pt"), "--program", str(target)])
+    assert "is a folder" in capsys.readouterr().err and not (tmp_path / "out.pt").exists()
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # no stray .tmp
+
+
+def test_a_failed_write_removes_its_temporary_file(tmp_path, monkeypatch):
+    path, _ = actor_file(tmp_path)
+    contents = read_actor_file(path)
+    out = tmp_path / "new" / "actor.pt"
+
+    def broken_replace(source, target):
+        raise OSError("disk full")
+
+    monkeypatch.setattr("explore_rl.models.actor_file.os.replace", broken_replace)
+    with pytest.raises(OSError, match="disk full"):
+        save_actor_file(out, contents)
+    assert list(out.parent.iterdir()) == []
