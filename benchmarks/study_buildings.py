@@ -13,6 +13,17 @@ Writes into ``--out`` (default ``benchmarks/results/buildings``): ``contact_shee
 ``table.md`` (mean, std and quantiles of each statistic, and the fractions).
 
     python benchmarks/study_buildings.py [--seeds 200] [--out DIR] [--quick | --smoke]
+
+``--ordering DIR`` instead reads an ``explore-rl-eval`` sweep over building seeds (one
+sub-folder per building, each with ``trials.jsonl``) and checks the paper's ordering per
+building, at the travel every policy reached (the shortest final travel of the three):
+nearest frontier explored the most (fastest coverage), nearest has the highest map error,
+EM the lowest. Writes ``ordering.md`` and ``ordering.json`` into DIR. ``--smoke`` also
+runs that check on a tiny evaluation it runs itself (one building, 3 m of travel).
+
+    explore-rl-eval -m scene=building scene.seed=1000,...,1019 slam=model \
+        "evaluate.policies=[em,nearest,random]" evaluate.trials=1 explore.travel_budget=150 out=DIR
+    python benchmarks/study_buildings.py --ordering DIR
 """
 
 from __future__ import annotations
@@ -29,7 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine  # noqa: E402
 
-from explore_rl import viz  # noqa: E402
+from explore_rl import comparison, viz  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.scene.build import RobotBodyConfig, build_spec  # noqa: E402
 from explore_rl.scene.building import CORRIDOR, HALL, BuildingPlan, generate_building  # noqa: E402
@@ -46,6 +57,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--seeds", type=int, default=200, help="statistics over seeds 0..N-1")
     parser.add_argument("--sheet", type=int, default=16, help="seeds on the contact sheet (a square number)")
     parser.add_argument("--out", default=str(RESULTS))
+    parser.add_argument("--ordering", default=None, metavar="DIR",
+                        help="check the paper's ordering in an explore-rl-eval sweep over building seeds")
     parser.add_argument("--quick", action="store_true", help="50 seeds")
     parser.add_argument("--smoke", action="store_true", help="6 seeds, a 2x2 sheet: checks that it runs")
     args = parser.parse_args()
@@ -132,8 +145,92 @@ def contact_sheet(plans: dict[int, BuildingPlan], robot_radius: float, grid_reso
     return viz.save(fig, out)
 
 
+def ordering(runs: list[dict], plans: dict[int, dict]) -> dict:
+    """Per building: explored and map error of em, nearest, random at the travel all reached;
+    whether nearest covered most, nearest erred most, EM erred least; and the counts."""
+    rows = []
+    for scene in sorted({r["scene"] for r in runs}):
+        good = {r["policy"]: r for r in runs if r["scene"] == scene and r["status"] != "error" and r["rows"]}
+        if not {"em", "nearest", "random"} <= good.keys():
+            continue
+        travel = min(r["travel_m"] for r in good.values())
+        seed = int(scene.rsplit("_", 1)[1])
+        row = {"scene": scene, "seed": seed, **{k: plans[seed][k] for k in ("corridor", "loops", "area")},
+               "travel_m": travel}
+        for policy, run in good.items():
+            row[f"explored_{policy}"] = comparison.value_at_travel(run, "explored", travel)
+            row[f"map_error_{policy}"] = comparison.value_at_travel(run, "map_error_m", travel)
+            row[f"final_explored_{policy}"], row[f"final_travel_{policy}"] = run["explored"], run["travel_m"]
+        explored = {p: row[f"explored_{p}"] for p in ("em", "nearest", "random")}
+        error = {p: row[f"map_error_{p}"] for p in ("em", "nearest", "random")}
+        # strict: a tie does not count
+        row["nearest_fastest_coverage"] = bool(explored["nearest"] > max(explored["em"], explored["random"]))
+        row["nearest_worst_map_error"] = bool(error["nearest"] > max(error["em"], error["random"]))
+        row["em_lowest_map_error"] = bool(error["em"] < min(error["nearest"], error["random"]))
+        row["paper_ordering"] = row["nearest_fastest_coverage"] and row["nearest_worst_map_error"] \
+            and row["em_lowest_map_error"]
+        rows.append(row)
+    flags = ("nearest_fastest_coverage", "nearest_worst_map_error", "em_lowest_map_error", "paper_ordering")
+    counts = {flag: sum(row[flag] for row in rows) for flag in flags}
+    by_loops = {kind: {flag: sum(row[flag] for row in rows if (row["loops"] > 0) == (kind == "loops"))
+                       for flag in flags} | {"buildings": sum((row["loops"] > 0) == (kind == "loops") for row in rows)}
+                for kind in ("loops", "tree")}
+    return {"buildings": len(rows), "counts": counts, "by_loops": by_loops, "rows": rows}
+
+
+def ordering_markdown(result: dict) -> str:
+    n, counts = result["buildings"], result["counts"]
+    lines = [f"Paper's ordering on {n} buildings, at the travel every policy reached (explored %, map error m):", "",
+             f"* nearest frontier fastest coverage: **{counts['nearest_fastest_coverage']} / {n}**",
+             f"* nearest frontier worst map error: **{counts['nearest_worst_map_error']} / {n}**",
+             f"* EM lowest map error: **{counts['em_lowest_map_error']} / {n}**",
+             f"* all three: **{counts['paper_ordering']} / {n}**", ""]
+    for kind, c in result["by_loops"].items():
+        lines.append(f"* {kind} plans ({c['buildings']}): nearest fastest {c['nearest_fastest_coverage']}, "
+                     f"nearest worst error {c['nearest_worst_map_error']}, EM lowest error {c['em_lowest_map_error']}")
+    lines += ["", "| building | corridor | loops | travel m | explored em / nearest / random | "
+              "map error em / nearest / random | ordering |", "|---|---|---|---|---|---|---|"]
+    for row in result["rows"]:
+        explored = " / ".join(f"{100 * row[f'explored_{p}']:.0f}" for p in ("em", "nearest", "random"))
+        error = " / ".join(f"{row[f'map_error_{p}']:.3f}" for p in ("em", "nearest", "random"))
+        mark = "yes" if row["paper_ordering"] else ", ".join(
+            f for f, ok in (("NF not fastest", row["nearest_fastest_coverage"]),
+                            ("NF not worst", row["nearest_worst_map_error"]),
+                            ("EM not lowest", row["em_lowest_map_error"])) if not ok)
+        lines.append(f"| {row['seed']} | {row['corridor']} | {row['loops']} | {row['travel_m']:.0f} | {explored} | "
+                     f"{error} | {mark} |")
+    return "\n".join(lines) + "\n"
+
+
+def check_ordering(directory: Path, config) -> dict:
+    """:func:`ordering` of the sweep in ``directory``; ``ordering.md`` and ``.json`` into it."""
+    runs = [run for path in sorted(directory.glob("*/trials.jsonl")) for run in comparison.read_trials(path)]
+    seeds = sorted({int(r["scene"].rsplit("_", 1)[1]) for r in runs if r["scene"].startswith("building_")})
+    plans = {seed: generate_building(replace(config.scene, seed=seed), config.robot.radius).stats() for seed in seeds}
+    result = ordering(runs, plans)
+    (directory / "ordering.json").write_text(json.dumps(result, indent=1) + "\n")
+    (directory / "ordering.md").write_text(ordering_markdown(result))
+    return result
+
+
+def tiny_evaluation(out: Path) -> Path:
+    """One building, em / nearest / random, 3 m of travel each: the smoke run of the check."""
+    small = load_config(["scene=building", "scene.seed=1000", "slam=model", "explore.travel_budget=3",
+                         "explore.progress_bar=false"])
+    trials = comparison.make_trials(small, ["em", "nearest", "random"], 1)
+    comparison.write_report([comparison.run_trial(t) for t in trials], out / "0_building_1000")
+    return out
+
+
 def main() -> None:
     args = parse_args()
+    if args.ordering:
+        config = load_config(["scene=building"])
+        result = check_ordering(Path(args.ordering), config)
+        print(ordering_markdown(result))
+        emit({"smoke": False, "buildings": result["buildings"], "counts": result["counts"],
+              "by_loops": result["by_loops"], "machine": machine()})
+        return
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     config = load_config(["scene=building"])
@@ -158,11 +255,13 @@ def main() -> None:
     sheet_path = contact_sheet(sheet, config.robot.radius, config.scene.grid_resolution, out / "contact_sheet.png")
     print(table)
     fractions = summary["fractions"]
+    smoke_ordering = check_ordering(tiny_evaluation(out / "eval"), config) if args.smoke else None
     emit({"smoke": args.smoke, "quick": args.quick, "seeds": args.seeds, "loop_fraction": fractions["loop_plans"],
           "tree_fraction": fractions["tree_plans"], "fractions": fractions,
           "medians": {k: v["median"] for k, v in summary["stats"].items()},
           "distinct_wall_sets": summary["distinct_wall_sets"], "table": str(out / "table.md"),
-          "contact_sheet": str(sheet_path), "machine": machine()})
+          "contact_sheet": str(sheet_path), "ordering_buildings": smoke_ordering and smoke_ordering["buildings"],
+          "machine": machine()})
 
 
 if __name__ == "__main__":

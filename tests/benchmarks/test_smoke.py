@@ -31,7 +31,8 @@ SCRIPTS = [
     ("benchmarks/bench_slam.py", [], ["keyframes_per_s", "ate_m", "ate_m_no_loops", "ate_m_odometry",
                                       "map_error_m", "loop_closures", "false_loop_closures", "attempts"]),
     ("benchmarks/study_buildings.py", ["--out", "{tmp}/buildings"], ["loop_fraction", "tree_fraction", "fractions",
-                                                                     "medians", "contact_sheet"]),
+                                                                     "medians", "contact_sheet",
+                                                                     "ordering_buildings"]),
     ("benchmarks/study_inflation.py", [], ["baseline", "per_variant", "table"]),
     ("benchmarks/study_ordering.py", ["--out", "{tmp}/ordering"], ["table", "checks", "plots"]),
     ("benchmarks/sweep_alpha.py", [], ["nearest_travel_m", "nearest_map_error_m", "rows", "chosen_alpha"]),
@@ -48,7 +49,8 @@ SCRIPTS = [
 # files the smoke run must have written into the tmp dir
 OUTPUTS = {
     "benchmarks/study_buildings.py": ["buildings/contact_sheet.png", "buildings/buildings.csv",
-                                      "buildings/summary.json", "buildings/table.md"],
+                                      "buildings/summary.json", "buildings/table.md", "buildings/eval/ordering.md",
+                                      "buildings/eval/ordering.json"],
     "benchmarks/study_ordering.py": ["ordering/ordering_table.md", "ordering/ordering_runs.jsonl",
                                      "ordering/ordering_street.png"],
     "scripts/calibrate_loop_closures.py": ["loop_closures.yaml", "attempts.csv"],
