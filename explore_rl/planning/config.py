@@ -70,16 +70,11 @@ class EMConfig:
     # reference = a copy of the live iSAM2 per loop candidate and one marginal query per
     # pose (the baseline of tests and benchmarks).
     backend: str = "reference"
-    # fast backend: a pose whose (x, y, yaw) covariance changes by less than this fraction
-    # of its norm keeps its landmarks' fused covariances (they are not re-fused).
-    refuse_tolerance: float = 1e-6
 
     def validate(self) -> None:
         """One-line errors for values no run can use."""
         if self.backend not in EM_BACKENDS:
             raise ValueError(f"planning.em.backend={self.backend!r}: choose {' or '.join(EM_BACKENDS)}")
-        if not 0.0 <= self.refuse_tolerance < 1.0:
-            raise ValueError(f"planning.em.refuse_tolerance={self.refuse_tolerance}: must be in [0, 1)")
 
 
 @dataclass

@@ -33,10 +33,10 @@ from explore_rl.planning.actions import Action, PathPrediction, predict_path, se
 from explore_rl.planning.config import EMConfig, PlanningConfig
 from explore_rl.planning.em_fast import (
     FastContext,
-    congruence,
+    batch_observations,
     fast_world_covariances,
+    fuse_batched,
     loop_update,
-    refuse_selection,
 )
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.reward import normalize_rewards, raw_reward
@@ -44,7 +44,6 @@ from explore_rl.planning.revisits import Revisit
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     fuse_in_order,
-    information_to_covariances,
     measurement_noise,
     range_bearing_jacobians,
 )
@@ -227,13 +226,12 @@ class Observations:
         gain = self.gain
         return self.noise + gain @ pose_covs[self.pose_idx] @ np.swapaxes(gain, 1, 2)
 
-    def fuse(self, initial: np.ndarray, pose_covs: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
+    def fuse(self, initial: np.ndarray, pose_covs: np.ndarray) -> np.ndarray:
         """Landmark covariances after fusing every observation into ``initial`` (a copy),
-        in pose order, by covariance intersection (as ``VirtualMap``); ``before (M, 3)``
-        receives each landmark's information just before each observation (``fuse_in_order``)."""
+        in pose order, by covariance intersection (as ``VirtualMap``)."""
         covs = np.array(initial, float)
         if len(self.pose_idx):
-            fuse_in_order(covs, self.landmark_idx, self.landmark_covariances(pose_covs), before)
+            fuse_in_order(covs, self.landmark_idx, self.landmark_covariances(pose_covs))
         return covs
 
 
@@ -307,10 +305,7 @@ def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: st
     else:
         pose_covs = world_covariances(graph, poses)
     observations = Observations.of(vmap, poses, blocked)
-    before = None if fast is None else np.zeros((len(observations.pose_idx), 3))
-    landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs, before)
-    if fast is not None:
-        fast.fused_before = before
+    landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
     return DecisionContext(graph, vmap, blocked, float(state.travel),
                            float(session.config.keyframe_distance), poses, pose_covs,
@@ -351,11 +346,12 @@ class EMPlanner:
         actions = self.actions(state) if actions is None else actions
         context = self.decision_context(state) if context is None else context
         indices = np.array([a.candidate for a in actions], dtype=int)
-        u_after, loops = np.empty(len(indices)), np.zeros(len(indices), dtype=int)
-        for k, action in enumerate(actions):
-            predicted = self.predicted_keyframes(context, action.prediction)
-            u_after[k] = self.utility_after(context, predicted)
-            loops[k] = len(predicted.revisits)
+        predicted = [self.predicted_keyframes(context, action.prediction) for action in actions]
+        loops = np.array([len(p.revisits) for p in predicted], dtype=int)
+        if context.fast is None:
+            u_after = np.array([self.utility_after(context, p) for p in predicted], dtype=float)
+        else:
+            u_after = self.utilities_fast(context, predicted)
         lengths = np.array([state.candidates[i].length for i in indices], dtype=float)
         raw = raw_reward(context.u0, u_after, lengths, self.planning.reward.alpha)
         nearest = np.flatnonzero(indices == state.nearest)
@@ -421,17 +417,40 @@ class EMPlanner:
         observations = context.observations.concatenated(new.shifted(len(context.poses)))
         return observations.fuse(context.vmap.prior_covariances(), all_covs)
 
-    def map_with_low_rank_update(self, context: DecisionContext, predicted: PredictedPath) -> np.ndarray:
-        """Fast backend: the candidate's marginals as a low-rank update of the factorised live
-        graph; only landmarks whose observers' covariance moved are fused again."""
-        covs = loop_update(context, context.fast, predicted, context.graph, self.em, ssm_covariance(self.em),
-                           loop_covariance(self.em))
-        first, rows = refuse_selection(context, covs.old, self.em.refuse_tolerance)
-        affected = first < len(rows)
-        initial = context.landmark_covs.copy()
-        initial[affected] = information_to_covariances(context.fast.fused_before[first[affected]])
-        new = Observations.of(context.vmap, predicted.poses, context.blocked)
-        observations = context.observations.subset(rows).concatenated(new.shifted(len(context.poses)))
-        pose_covs = np.concatenate([covs.old, covs.new])[observations.pose_idx]
-        fuse_in_order(initial, observations.landmark_idx, observations.noise + congruence(observations.gain, pose_covs))
-        return initial
+    # ------------------------------------------------------------ fast backend
+
+    def utilities_fast(self, context: DecisionContext, predicted: list[PredictedPath]) -> np.ndarray:
+        """``U'`` of every candidate with the fast backend (explore_rl/planning/em_fast.py):
+        loop candidates by a low-rank update of the factorised live graph and one batched
+        re-fusion of the virtual map; the others as :meth:`utility_after`."""
+        u_after = np.full(len(predicted), context.u0)
+        visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
+        new = [Observations.of_pairs(context.vmap, p.poses, *pairs) for p, pairs in zip(predicted, visible)]
+        chain = [k for k, p in enumerate(predicted) if len(p) and not p.revisits and self.em.shortcut_without_loops]
+        for k in chain:
+            covs = propagate_chain(context.pose_covs[-1], context.poses[-1], predicted[k].poses,
+                                   step_covariances(context.graph, predicted[k].steps, self.em))
+            u_after[k] = context.vmap.utility(new[k].fuse(context.landmark_covs, covs))
+        loop = [k for k, p in enumerate(predicted) if len(p) and k not in chain]
+        if loop:
+            for k, covs in zip(loop, self.loop_maps(context, [predicted[k] for k in loop], [new[k] for k in loop])):
+                u_after[k] = context.vmap.utility(covs)
+        return u_after
+
+    def loop_maps(self, context: DecisionContext, predicted: list[PredictedPath],
+                  new: list[Observations]) -> list[np.ndarray]:
+        """Virtual maps ``(L, 2, 2)`` after each loop candidate: every keyframe's covariance
+        by the low-rank update, the old observations re-fused for all candidates in one
+        pass (``fuse_batched``), then each candidate's new poses in order."""
+        ssm, loop = ssm_covariance(self.em), loop_covariance(self.em)
+        covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
+        old = context.observations
+        prior = context.vmap.prior_covariances()
+        maps = [prior.copy() for _ in predicted]
+        if len(old.pose_idx):
+            rounds = context.fast.rounds_of(old.landmark_idx)
+            fused = fuse_batched(rounds, old.pose_idx, old.gain, old.noise, np.stack([c.old for c in covs]),
+                                 prior[rounds.landmarks])
+            for covs_map, fused_map in zip(maps, fused):
+                covs_map[rounds.landmarks] = fused_map
+        return [n.fuse(m, c.new) for m, n, c in zip(maps, new, covs)]

@@ -17,9 +17,13 @@ Per candidate with a predicted loop (:func:`loop_update`), instead of copying iS
 2. each predicted loop ``(r, k)`` is one more 6-dof factor: all loops together are a
    rank-``6m`` update of that joint (Woodbury), which needs only the covariance columns
    of the revisited keyframes ``r`` and of the last keyframe;
-3. only landmarks seen from a keyframe whose (x, y, yaw) covariance moved by more than
-   ``planning.em.refuse_tolerance`` of its norm are re-fused from the prior (in the same
-   pose order as the reference); the others keep the current map's fused covariance.
+3. the virtual map is fused again from the prior, in the same order and with the same
+   covariance-intersection arithmetic as the reference, but for all loop candidates in
+   one pass of rounds (:func:`fuse_batched`): a round costs ~20 numpy calls whatever its
+   size, and there are as many rounds as the most-seen landmark has observations
+   (~200-300 on office graphs), so one pass for ten candidates costs little more than one.
+   The new keyframes' line-of-sight tests run once for the distinct predicted poses of
+   all candidates (:func:`batch_observations`; paths share their first stretch).
 
 Computed in world-frame adjoint coordinates ``eta = Ad(T) xi`` (gtsam's right perturbation
 ``T Exp(xi)``): a chain keyframe then moves as ``eta_k = eta_last + sum of step noises``,
@@ -44,11 +48,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from explore_rl.planning.config import EMConfig
+from explore_rl.planning.virtual_map import ci_weight
 from explore_rl.slam.marginals import BLOCK, SparseMarginals
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 
 if TYPE_CHECKING:
     from explore_rl.planning.em import DecisionContext, PredictedPath
+    from explore_rl.planning.virtual_map import VirtualMap
 
 # Rows/columns (yaw, x, y) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz): the
 # ones the world-frame (x, y, yaw) covariance reads.
@@ -106,14 +112,18 @@ class FastContext:
 
     marginals: SparseMarginals
     tangent_covs: np.ndarray  # (N, 6, 6) every keyframe's marginal (Pose3 tangent, body frame)
-    # (M, 3) each current observation's landmark information (i00, i01, i11) just before
-    # it was fused into the current map (fuse_in_order's ``before``)
-    fused_before: np.ndarray | None = None
+    rounds: FuseRounds | None = None  # the current observations in fusion rounds (set by the context)
 
     @classmethod
     def of(cls, graph: PoseGraph) -> FastContext:
         marginals = SparseMarginals(graph.information_matrix())
         return cls(marginals, marginals.diagonal_blocks())
+
+    def rounds_of(self, landmark_idx: np.ndarray) -> FuseRounds:
+        """The fusion rounds of the current observations (built once per decision)."""
+        if self.rounds is None:
+            self.rounds = FuseRounds.of(landmark_idx)
+        return self.rounds
 
 
 def fast_world_covariances(graph: PoseGraph, poses: np.ndarray) -> tuple[np.ndarray, FastContext]:
@@ -213,36 +223,101 @@ def _downdate(covs: np.ndarray, u: np.ndarray, gain: np.ndarray, rows: list[int]
 # ---------------------------------------------------------------------- landmarks
 
 
-def congruence(gain: np.ndarray, covs: np.ndarray) -> np.ndarray:
-    """``(M, 2, 2)``: ``gain @ covs @ gain^T`` for ``gain (M, 2, 3)`` and symmetric
-    ``covs (M, 3, 3)``, written out (batched 2x3 matmuls cost ~10x more in numpy)."""
-    g0, g1 = gain[:, 0], gain[:, 1]  # (M, 3) rows
-    t0 = np.einsum("mj,mjk->mk", g0, covs)  # row 0 of gain @ covs
-    t1 = np.einsum("mj,mjk->mk", g1, covs)
-    out = np.empty((len(gain), 2, 2))
-    out[:, 0, 0] = np.einsum("mk,mk->m", t0, g0)
-    out[:, 1, 1] = np.einsum("mk,mk->m", t1, g1)
-    out[:, 0, 1] = out[:, 1, 0] = np.einsum("mk,mk->m", t0, g1)
+def information_components(covs: np.ndarray) -> np.ndarray:
+    """``(3, ...)``: ``(i00, i01, i11)`` of the inverses of symmetric 2x2 ``covs (..., 2, 2)``
+    (the expressions of ``virtual_map._information``, so the same floats)."""
+    m00, m01, m11 = covs[..., 0, 0], covs[..., 0, 1], covs[..., 1, 1]
+    det = m00 * m11 - m01 * m01
+    return np.stack([m11 / det, -m01 / det, m00 / det])
+
+
+def covariances_of(info: np.ndarray) -> np.ndarray:
+    """``(..., 2, 2)`` covariances of information components ``info (3, ...)``."""
+    i00, i01, i11 = info
+    det = i00 * i11 - i01 * i01
+    c00, c01, c11 = i11 / det, -i01 / det, i00 / det
+    return np.stack([np.stack([c00, c01], axis=-1), np.stack([c01, c11], axis=-1)], axis=-2)
+
+
+@dataclass
+class FuseRounds:
+    """The current observations arranged for covariance intersection in rounds: round
+    ``j`` fuses the ``j``-th observation (pose order) of every landmark seen more than
+    ``j`` times. Landmarks (columns) are sorted by observation count, most first, so a
+    round touches a prefix of the columns and its rows are one contiguous slice."""
+
+    rows: np.ndarray  # (M,) observation rows in (round, column) order
+    offsets: np.ndarray  # (R + 1,) where each round's rows start in ``rows``
+    landmarks: np.ndarray  # (S,) the landmark of each column
+
+    @classmethod
+    def of(cls, landmark_idx: np.ndarray) -> FuseRounds:
+        order = np.argsort(landmark_idx, kind="stable")
+        sorted_lm = landmark_idx[order]
+        starts = np.flatnonzero(np.r_[True, sorted_lm[1:] != sorted_lm[:-1]]) if len(order) else order
+        counts = np.diff(np.r_[starts, len(sorted_lm)])
+        by_count = np.argsort(-counts, kind="stable")
+        column = np.empty(len(starts), dtype=np.int64)
+        column[by_count] = np.arange(len(starts))
+        rank = np.arange(len(sorted_lm)) - np.repeat(starts, counts)
+        slot = rank * max(len(starts), 1) + np.repeat(column, counts)
+        rows = order[np.argsort(slot)]
+        offsets = np.r_[0, np.cumsum(np.bincount(rank))] if len(order) else np.zeros(1, dtype=int)
+        return cls(rows, offsets.astype(np.int64), sorted_lm[starts][by_count])
+
+
+def fuse_batched(rounds: FuseRounds, pose_idx: np.ndarray, gain: np.ndarray, noise: np.ndarray,
+                 pose_covs: np.ndarray, initial: np.ndarray) -> np.ndarray:
+    """``(C, S, 2, 2)``: the landmarks of ``rounds`` after fusing every observation
+    (``pose_idx``, ``gain``, ``noise`` of :class:`~explore_rl.planning.em.Observations`)
+    into ``initial (S, 2, 2)``, for ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)``
+    at once -- :func:`~explore_rl.planning.virtual_map.fuse_in_order` per set (same order,
+    same covariance-intersection arithmetic), one pass of rounds for all sets."""
+    rows = rounds.rows
+    observed = observed_information(gain[rows], noise[rows], pose_covs, pose_idx[rows])  # (3, M, C)
+    info = np.repeat(information_components(initial)[:, :, None], len(pose_covs), axis=2)  # (3, S, C)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for begin, end in zip(rounds.offsets[:-1].tolist(), rounds.offsets[1:].tolist()):
+            a, b = info[:, : end - begin], observed[:, begin:end]
+            diff = a - b
+            info[:, : end - begin] = b + ci_weight(a, b, diff) * diff
+    return covariances_of(np.moveaxis(info, 2, 1))  # (C, S, 2, 2)
+
+
+def observed_information(gain: np.ndarray, noise: np.ndarray, pose_covs: np.ndarray,
+                         pose_idx: np.ndarray) -> np.ndarray:
+    """``(3, M, C)`` information components of ``noise + gain S gain^T`` for each
+    observation ``(gain (M, 2, 3), noise (M, 2, 2))`` of pose ``pose_idx (M,)`` and each of
+    ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)``: component arithmetic on
+    contiguous ``(M, C)`` arrays (a gathered ``(C, M, 3, 3)`` stack is slower and large)."""
+    covs = np.ascontiguousarray(np.moveaxis(pose_covs, 0, -1))  # (N, 3, 3, C)
+    s00, s01, s02, s11, s12, s22 = (covs[:, i, j][pose_idx] for i, j in
+                                    ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))
+    a0, a1, a2, b0, b1, b2 = (gain[:, i, j, None] for i in range(2) for j in range(3))
+    u0, u1, u2 = a0 * s00 + a1 * s01 + a2 * s02, a0 * s01 + a1 * s11 + a2 * s12, a0 * s02 + a1 * s12 + a2 * s22
+    v0, v1, v2 = b0 * s00 + b1 * s01 + b2 * s02, b0 * s01 + b1 * s11 + b2 * s12, b0 * s02 + b1 * s12 + b2 * s22
+    c00 = noise[:, 0, 0, None] + (u0 * a0 + u1 * a1 + u2 * a2)
+    c01 = noise[:, 0, 1, None] + (u0 * b0 + u1 * b1 + u2 * b2)
+    c11 = noise[:, 1, 1, None] + (v0 * b0 + v1 * b1 + v2 * b2)
+    det = c00 * c11 - c01 * c01
+    return np.stack([c11 / det, -c01 / det, c00 / det])
+
+def batch_observations(vmap: VirtualMap, poses: list[np.ndarray], blocked: np.ndarray) -> list[tuple]:
+    """``vmap.visible_pairs`` of each pose set in ``poses``, with one line-of-sight batch
+    for the distinct poses of all sets: ``[(pose_idx, landmark_idx), ...]``, each as
+    ``visible_pairs(poses[k], blocked)`` would return it (pose order, then window order)."""
+    sizes = [len(p) for p in poses]
+    if not sum(sizes):
+        return [(np.zeros(0, dtype=int), np.zeros(0, dtype=int)) for _ in poses]
+    stacked = np.concatenate([np.asarray(p, float).reshape(-1, 3) for p in poses])
+    unique, inverse = np.unique(stacked, axis=0, return_inverse=True)
+    pose_idx, landmark_idx = vmap.visible_pairs(unique, blocked)
+    starts = np.searchsorted(pose_idx, np.arange(len(unique) + 1))
+    out, offset = [], 0
+    for size in sizes:
+        ids = inverse.ravel()[offset: offset + size]
+        offset += size
+        spans = [np.arange(starts[u], starts[u + 1]) for u in ids]
+        rows = np.concatenate(spans) if spans else np.zeros(0, dtype=int)
+        out.append((np.repeat(np.arange(size), [len(x) for x in spans]), landmark_idx[rows]))
     return out
-
-
-
-def changed_poses(before: np.ndarray, after: np.ndarray, tolerance: float) -> np.ndarray:
-    """``(N,)`` whether each covariance moved by more than ``tolerance`` of its norm."""
-    diff = np.linalg.norm((after - before).reshape(len(before), -1), axis=1)
-    return diff > tolerance * np.linalg.norm(before.reshape(len(before), -1), axis=1)
-
-
-def refuse_selection(context: DecisionContext, old_covs: np.ndarray,
-                     tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(first (L,), rows (M,))``: for every landmark the first of its current
-    observations (in pose order) made from a keyframe whose covariance moved by more than
-    ``tolerance`` (``M`` if none), and the observations from there on, which are fused
-    again (from the landmark's recorded state just before ``first``)."""
-    old = context.observations
-    count = len(old.pose_idx)
-    moved = np.flatnonzero(changed_poses(context.pose_covs, old_covs, tolerance)[old.pose_idx])
-    first = np.full(len(context.landmark_covs), count)
-    landmarks, at = np.unique(old.landmark_idx[moved], return_index=True)  # rows ascend: the first
-    first[landmarks] = moved[at]
-    return first, np.arange(count) >= first[old.landmark_idx]

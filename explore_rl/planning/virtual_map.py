@@ -78,18 +78,29 @@ def _ci_fuse(info_a, info_b) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray],
     """Covariance intersection of information matrices given as components ``(i00, i01,
     i11)``: the fused information ``IB + w (IA - IB)`` and ``w``, the maximiser over [0, 1]
     of its determinant."""
-    a00, a01, a11 = info_a
     b00, b01, b11 = info_b
-    d00, d01, d11 = a00 - b00, a01 - b01, a11 - b11
+    d00, d01, d11 = (a - b for a, b in zip(info_a, info_b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = ci_weight(info_a, info_b, (d00, d01, d11))
+    return (b00 + w * d00, b01 + w * d01, b11 + w * d11), w
+
+
+def ci_weight(info_a, info_b, diff) -> np.ndarray:
+    """The covariance-intersection weight ``w`` of :func:`_ci_fuse` for information
+    components ``info_a``, ``info_b`` and ``diff = info_a - info_b`` (each indexable by
+    component 0, 1, 2: tuples of arrays or ``(3, ...)`` arrays). Call it under
+    ``np.errstate(divide="ignore", invalid="ignore")`` (the stationary point is only
+    used where the quadratic is concave)."""
+    a00, a01, a11 = info_a[0], info_a[1], info_a[2]
+    b00, b01, b11 = info_b[0], info_b[1], info_b[2]
+    d00, d01, d11 = diff[0], diff[1], diff[2]
     quad = d00 * d11 - d01 * d01
     lin = b00 * d11 + b11 * d00 - 2.0 * b01 * d01
     det_a, det_b = a00 * a11 - a01 * a01, b00 * b11 - b01 * b01  # the quadratic at w = 1 and 0
     endpoint = np.where(det_a > det_b, 1.0, np.where(det_a < det_b, 0.0, 0.5))
     concave = quad < 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        stationary = np.clip(-lin / (2.0 * np.where(concave, quad, 1.0)), 0.0, 1.0)
-    w = np.where(concave, stationary, endpoint)
-    return (b00 + w * d00, b01 + w * d01, b11 + w * d11), w
+    stationary = np.clip(-lin / (2.0 * np.where(concave, quad, 1.0)), 0.0, 1.0)
+    return np.where(concave, stationary, endpoint)
 
 
 def log_det_utility(covs: np.ndarray) -> float:
@@ -302,17 +313,13 @@ class VirtualMap:
         return np.trace(covs, axis1=-2, axis2=-1).reshape(self.landmark_grid.shape)
 
 
-def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray,
-                  before: np.ndarray | None = None) -> None:
+def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarray) -> None:
     """Fuse ``observed[i]`` into ``covs[landmark_idx[i]]`` in place, in index order, by
     covariance intersection (:func:`covariance_intersection`).
 
     The j-th observation of every landmark is fused in round j, all landmarks at once.
     The rounds run on information components (three flat arrays), inverting each
     observation once and each landmark twice, instead of every matrix in every round.
-    ``before (M, 3)``, if given, receives the landmark's information components
-    ``(i00, i01, i11)`` just before each observation is fused in (to resume the fusion
-    from any observation later: :func:`information_to_covariances`).
     """
     if not len(landmark_idx):
         return
@@ -332,16 +339,7 @@ def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarr
         sel = by_round[begin : begin + count]
         begin += count
         rows = slot[landmark_idx[sel]]
-        current = [c[rows] for c in info]
-        if before is not None:
-            before[sel] = np.stack(current, axis=-1)
-        fused, _ = _ci_fuse(current, [c[sel] for c in observed_info])
+        fused, _ = _ci_fuse([c[rows] for c in info], [c[sel] for c in observed_info])
         for component, value in zip(info, fused):
             component[rows] = value
     covs[seen] = _matrix(*_inverse_components(*info))
-
-
-def information_to_covariances(info: np.ndarray) -> np.ndarray:
-    """``(..., 2, 2)`` covariances of information components ``(..., 3)`` = ``(i00, i01, i11)``
-    (as recorded by :func:`fuse_in_order`)."""
-    return _matrix(*_inverse_components(info[..., 0], info[..., 1], info[..., 2]))
