@@ -64,7 +64,7 @@ class Door:
         return (mid, self.line) if self.axis == 0 else (self.line, mid)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # holds an array: compare plans by their layouts
 class BuildingPlan:
     """One generated plan: the layout plus the structure it was drawn from (for statistics)."""
 
@@ -126,7 +126,9 @@ def generate_building(config: SceneConfig, robot_radius: float) -> BuildingPlan:
 def draw_plan(rng: np.random.Generator, config: SceneConfig, robot_radius: float, attempt: int) -> BuildingPlan:
     """One attempt of the pipeline in the module docstring; raises :class:`Redraw`."""
     b, m = config.building, config.building.module
-    size = tuple(float(v) for v in np.round(rng.uniform(b.size_min, b.size_max, size=2) / m) * m)
+    low = cells(b.size_min, m)
+    sides = np.clip(np.round(rng.uniform(b.size_min, b.size_max, size=2) / m), low, max(low, cells(b.size_max, m, False)))
+    size = tuple(float(v) for v in sides * m)
     shape = (int(round(size[1] / m)), int(round(size[0] / m)))
     kind = str(rng.choice(b.corridor_kinds, p=np.asarray(b.corridor_weights) / sum(b.corridor_weights)))
     labels, kinds = corridor_raster(rng, shape, kind, b)
