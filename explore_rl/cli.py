@@ -1,11 +1,16 @@
 """Hydra entry points: ``explore-rl-view``, ``-tour``, ``-explore``, ``-compare``, ``-train``, ``-eval``.
 
-The config directory is the repository's ``conf/`` (the package is installed editable by
-``make``); ``hydra.job.chdir`` stays false so relative paths mean what the user typed.
+The config directory is the package's ``conf/`` (the repository's in a source tree or an
+editable install, the wheel's copy otherwise; explore_rl/resources.py); ``--config-path``
+still overrides it. ``hydra.job.chdir`` stays false so relative paths mean what the user
+typed. A ``ValueError`` anywhere in a command -- a bad value, file or situation the code
+names -- reaches the user as one ``error:`` line with exit status 2, not a traceback.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import logging
 import sys
 from pathlib import Path
@@ -46,7 +51,43 @@ def build_or_fail(cfg: DictConfig, build: Callable[[Config], T]) -> tuple[Config
         raise  # unreachable: fail() exits
 
 
-@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+def entry_point(config_name: str = "config") -> Callable[[Callable[[DictConfig], None]], Callable[[], None]]:
+    """``hydra.main`` over ``conf/`` for a command whose ``ValueError`` (raised while it
+    runs, not only by validation) ends it with one ``error:`` line instead of a traceback."""
+
+    def decorate(task: Callable[[DictConfig], None]) -> Callable[[], None]:
+        @functools.wraps(task)
+        def run(cfg: DictConfig) -> None:
+            try:
+                task(cfg)
+            except ValueError as error:
+                log.debug("the command ended with a ValueError", exc_info=True)  # hydra.verbose=explore_rl
+                fail(str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__)
+
+        return hydra.main(config_path=CONF_DIR, config_name=config_name, version_base="1.3")(run)
+
+    return decorate
+
+
+# optional dependencies of settings: (config key, value) -> (module, the install command)
+OPTIONAL_DEPENDENCIES = {
+    ("collector.backend", "ray"): ("ray", 'pip install "explore_rl[ray]"  (or: pip install "ray[default]>=2.9")'),
+    ("logger.kind", "tensorboard"): ("tensorboard", "pip install tensorboard"),
+}
+
+
+def check_optional_dependencies(config: Config) -> None:
+    """Fail in one line, with the install command, if a setting needs a package that is
+    not installed (before any run folder or file is written)."""
+    settings = {"collector.backend": config.collector.backend, "logger.kind": config.logger.kind}
+    for (key, value), (module, install) in OPTIONAL_DEPENDENCIES.items():
+        if settings[key] != value:
+            continue
+        if importlib.util.find_spec(module) is None:  # as TorchRL itself detects them
+            raise ValueError(f"{key}={value} needs the package {module!r}, which is not installed: {install}")
+
+
+@entry_point()
 def view(cfg: DictConfig) -> None:
     """Render a scene top-down: obstacles, true free space, the robot and one LiDAR scan."""
     from explore_rl import viz
@@ -67,7 +108,7 @@ def view(cfg: DictConfig) -> None:
     print(f"wrote {viz.save(fig, out)}")
 
 
-@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+@entry_point()
 def tour(cfg: DictConfig) -> None:
     """Drive the scripted office tour with SLAM; draw true, odometry and SLAM trajectories."""
     from explore_rl import viz
@@ -114,7 +155,7 @@ def write_csv(path: Path, rows: list[dict]) -> None:
             writer.writerows(rows)
 
 
-@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+@entry_point()
 def explore(cfg: DictConfig) -> None:
     """Explore a scene with a policy; write decisions.csv, a figure and optionally a GIF."""
     from tqdm import tqdm
@@ -136,8 +177,10 @@ def explore(cfg: DictConfig) -> None:
             frames.append(viz.figure_to_array(fig))
             viz.plt.close(fig)
 
-    result = explorer.run(on_decision)
-    bar.close()
+    try:
+        result = explorer.run(on_decision)
+    finally:  # ends the bar's line, also before an error line
+        bar.close()
     write_csv(out_dir / f"{name}.csv", result.table())
     last = result.records[-1] if result.records else None
     summary = (f"{result.status.value}: {len(result.records)} decisions, "
@@ -174,7 +217,19 @@ def comparison_figure(runs: dict[str, list[dict]], scene_name: str):
     return fig
 
 
-@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+def compare_line(name: str, result, travelled: float) -> str:
+    """One policy's line of ``explore-rl-compare``; a run without decisions (a tiny budget)
+    says so instead of reading a last record that does not exist."""
+    head = f"{name:8s} {result.status.value:22s} travel {travelled:6.1f} m  "
+    if not result.records:
+        return head + "no decisions"
+    last = result.records[-1]
+    return (head + f"explored {100 * last.explored:5.1f} %  map error {last.map_error_m:.3f} m  "
+            f"volume {last.volume_m3:6.1f} m3  loop closures {last.loop_closures}  "
+            f"blocked {last.blocked_decisions}  contacts {last.contacts}")
+
+
+@entry_point()
 def compare(cfg: DictConfig) -> None:
     """Explore one scene with several policies (``compare.policies``) and compare them."""
     from dataclasses import replace
@@ -193,11 +248,7 @@ def compare(cfg: DictConfig) -> None:
         stem = f"{explorer.scene.layout.name}_{name}_seed{config.seed}"
         write_csv(out_dir / f"{stem}.csv", runs[name])
         viz.save(exploration_figure(explorer, f"{stem}: {result.status.value}"), out_dir / f"{stem}.png")
-        last = result.records[-1]
-        lines.append(f"{name:8s} {result.status.value:22s} travel {explorer.robot.travelled:6.1f} m  "
-                     f"explored {100 * last.explored:5.1f} %  map error {last.map_error_m:.3f} m  "
-                     f"volume {last.volume_m3:6.1f} m3  loop closures {last.loop_closures}  "
-                     f"blocked {last.blocked_decisions}  contacts {last.contacts}")
+        lines.append(compare_line(name, result, explorer.robot.travelled))
     scene_name = config.scene.name
     figure = viz.save(comparison_figure(runs, scene_name), out_dir / f"{scene_name}_comparison.png")
     print("\n".join(lines))
@@ -218,21 +269,36 @@ def training_run_dir(config: Config) -> Path:
     return Path(config.out)
 
 
-@hydra.main(config_path=CONF_DIR, config_name="train", version_base="1.3")
+def check_run_dir(config: Config, run_dir: Path) -> None:
+    """A new run needs an empty or new folder (``out=``): one that holds a run needs
+    ``resume=true``; any other non-empty folder is refused (its files would be overwritten).
+    Hydra's own timestamped folder (no ``out``) is always new."""
+    if config.resume or config.out is None or not run_dir.exists():
+        return
+    if (run_dir / "checkpoints" / "last.pt").exists():
+        raise ValueError(f"{run_dir} already holds a run: add resume=true to continue it, or choose another out=")
+    if not run_dir.is_dir():
+        raise ValueError(f"out={run_dir} is a file, not a folder: choose a new or empty folder")
+    if any(run_dir.iterdir()):
+        raise ValueError(f"out={run_dir} is not empty and holds no training run: choose a new or empty folder "
+                         "(nothing was written)")
+
+
+@entry_point("train")
 def train(cfg: DictConfig) -> None:
     """Train the g-U-Net actor-critic with A2C (explore_rl/trainer/a2c.py)."""
     from explore_rl.trainer.a2c import TrainingRun
 
     config, _ = build_or_fail(cfg, lambda c: None)
+    check_optional_dependencies(config)
     run_dir = training_run_dir(config)
-    if not config.resume and (run_dir / "checkpoints" / "last.pt").exists():
-        fail(f"{run_dir} already holds a run: add resume=true to continue it, or choose another out=")
+    check_run_dir(config, run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    (run_dir / ("config_resumed.yaml" if config.resume else "config.yaml")).write_text(OmegaConf.to_yaml(cfg))
-    try:
-        run = TrainingRun(config, run_dir)
-    except ValueError as error:  # bad checkpoint / incompatible resume
-        fail(str(error))
+    if not config.resume:
+        (run_dir / "config.yaml").write_text(OmegaConf.to_yaml(cfg))
+    run = TrainingRun(config, run_dir)  # a bad checkpoint / incompatible resume: ValueError, one line
+    if config.resume:  # written only once the resume is known to work
+        (run_dir / "config_resumed.yaml").write_text(OmegaConf.to_yaml(cfg))
     state = run.run()
     print(f"{state.updates} updates, {state.frames} decisions, {len(run.episodes.finished)} episodes, "
           f"{state.skipped_updates} skipped, {state.wall_s / 60:.1f} min; checkpoints in {run.checkpoints}")
@@ -262,7 +328,7 @@ def check_evaluation(config: Config) -> None:
         load_actor(config.policy.checkpoint)
 
 
-@hydra.main(config_path=CONF_DIR, config_name="config", version_base="1.3")
+@entry_point()
 def evaluate(cfg: DictConfig) -> None:
     """Compare policies on one scene over trials (explore_rl/comparison.py): every decision
     (decisions.csv), mean and std per policy (summary.md), map error and 3D volume against
