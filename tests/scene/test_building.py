@@ -273,3 +273,16 @@ def test_bad_value_rejected_before_anything_runs():
     load_config(["scene=office", "scene.building.door_min_width=0.5"])  # not checked for another scene
     with pytest.raises(ValueError, match="door_min_width"):
         make_scene(config(0, door_min_width=0.5), RobotConfig(), LidarConfig())  # the API checks too
+
+
+def test_explore_rl_view_draws_a_building(tmp_path):
+    """``explore-rl-view scene=building seed=S`` as a user runs it."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "b.png"
+    view = [sys.executable, "-c", "from explore_rl.cli import view; view()"]
+    result = subprocess.run(view + ["scene=building", "seed=5", f"out={out}"], capture_output=True, text=True,
+                            cwd=tmp_path, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert out.stat().st_size > 10_000 and f"wrote {out}" in result.stdout
