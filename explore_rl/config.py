@@ -201,6 +201,7 @@ def validate_mapping(config: Config) -> None:
 
 def validate_planning(config: Config) -> None:
     planning = config.planning
+    planning.em.validate()
     if planning.actions.kind not in ("graph", "nearest"):
         raise ValueError(f"planning.actions.kind={planning.actions.kind!r}: choose graph or nearest")
     checks.at_least("planning.actions.max_frontiers", planning.actions.max_frontiers, 1)

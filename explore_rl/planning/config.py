@@ -65,11 +65,12 @@ class EMConfig:
     # Skip the graph copy for candidates without a predicted loop (exact up to
     # linearisation); false forces the copy for every candidate (slower; for checks).
     shortcut_without_loops: bool = True
-    # How U' is computed: fast = one sparse factorisation of the live graph per decision,
-    # every candidate's marginals as a low-rank update of it (explore_rl/planning/em_fast.py);
-    # reference = a copy of the live iSAM2 per loop candidate and one marginal query per
-    # pose (the baseline of tests and benchmarks).
-    backend: str = "reference"
+    # How the pose marginals and U' are computed: fast = one sparse factorisation of the
+    # live graph per decision, every candidate's marginals as a low-rank update of it
+    # (explore_rl/planning/em_fast.py; same utilities within the tolerance documented in
+    # tests/planning/test_em_fast.py); reference = a copy of the live iSAM2 per loop
+    # candidate and one marginal query per pose (the baseline of tests and benchmarks).
+    backend: str = "fast"
 
     def validate(self) -> None:
         """One-line errors for values no run can use."""

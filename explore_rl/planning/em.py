@@ -149,6 +149,15 @@ def world_covariances(graph: PoseGraph, poses: np.ndarray) -> np.ndarray:
     return jac @ marginals @ np.swapaxes(jac, 1, 2)
 
 
+def pose_covariances(graph: PoseGraph, poses: np.ndarray, backend: str) -> tuple[np.ndarray, FastContext | None]:
+    """``(N, 3, 3)`` world-frame (x, y, yaw) marginals of every keyframe: one iSAM2 query
+    per pose (``reference``) or one factorisation of the graph (``fast``, which also
+    returns the factorisation for EM's candidates)."""
+    if backend == "fast":
+        return fast_world_covariances(graph, poses)
+    return world_covariances(graph, poses), None
+
+
 @dataclass
 class PredictedPath:
     """The keyframes a candidate's path would add, chained to the last live keyframe."""
@@ -299,11 +308,7 @@ def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: st
     graph = session.graph
     blocked = session.occupancy.known_occupied
     poses = graph.poses_se2()
-    fast = None
-    if backend == "fast":
-        pose_covs, fast = fast_world_covariances(graph, poses)
-    else:
-        pose_covs = world_covariances(graph, poses)
+    pose_covs, fast = pose_covariances(graph, poses, backend)
     observations = Observations.of(vmap, poses, blocked)
     landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)

@@ -10,7 +10,7 @@ the reward.
 context, which fuses *every* keyframe's observations into the whole virtual map (the
 EM utility needs all of it; its cost grows with poses x landmarks in range, plus a
 line-of-sight test per pair). The graph needs less: every keyframe's xy covariance
-(all pose marginals, read at once by :func:`~explore_rl.planning.em.world_covariances`)
+(all pose marginals, read at once by :func:`~explore_rl.planning.em.pose_covariances`)
 and the virtual landmark of each action frontier -- a handful of cells. :func:`graph_features`
 fuses only the observations of those landmarks, from the keyframes within sensor range,
 in keyframe order and with the same observation model and covariance-intersection kernel
@@ -40,7 +40,7 @@ from explore_rl.models.actor_critic import GraphActor
 from explore_rl.models.actor_file import ActorFile, load_actor
 from explore_rl.planning.actions import Action, select_actions
 from explore_rl.planning.config import PlanningConfig
-from explore_rl.planning.em import Observations, world_covariances
+from explore_rl.planning.em import Observations, pose_covariances
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.virtual_map import VirtualMap
 
@@ -83,12 +83,14 @@ def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
     return covs
 
 
-def graph_features(state: ExplorationState, actions: list[Action], vmap: VirtualMap) -> ExplorationGraph:
+def graph_features(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
+                   backend: str = "fast") -> ExplorationGraph:
     """The exploration graph of ``state`` (equal to ``graph_from_state`` with EM's decision
-    context; see the module docstring for what is skipped)."""
+    context; see the module docstring for what is skipped). ``backend`` reads the pose
+    marginals as EM's (``planning.em.backend``): one factorisation or one query per pose."""
     session = state.session
     poses = session.graph.poses_se2()
-    pose_covs = world_covariances(session.graph, poses)
+    pose_covs, _ = pose_covariances(session.graph, poses, backend)
     frontier_covs = frontier_covariances(vmap, poses, pose_covs, session.occupancy.known_occupied,
                                          action_frontiers(state, actions))
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
@@ -139,7 +141,8 @@ class LearnedPolicy:
         start = time.perf_counter()
         actions = select_actions(state, self.planning.actions, self.planning.revisits)
         after_actions = time.perf_counter()
-        graph = graph_features(state, actions, self.virtual_map(state.session.occupancy.grid))
+        graph = graph_features(state, actions, self.virtual_map(state.session.occupancy.grid),
+                               self.planning.em.backend)
         encoded = encode(graph, self.max_nodes)
         after_graph = time.perf_counter()
         row = greedy_row(self.actor, encoded)

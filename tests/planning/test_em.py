@@ -89,9 +89,11 @@ def tour_state(scale: float, extra_paths=()) -> ExplorationState:
 
 
 def planner(max_candidates: int = 10, **em) -> EMPlanner:
-    """EM over the ``max_candidates`` nearest frontiers (``planning.actions.kind=nearest``)."""
+    """EM over the ``max_candidates`` nearest frontiers (``planning.actions.kind=nearest``);
+    the reference backend (graph copies) unless ``backend`` is given (this file tests the
+    reference; tests/planning/test_em_fast.py the fast backend against it)."""
     planning = PlanningConfig(actions=ActionSetConfig(kind="nearest", max_frontiers=max_candidates))
-    return EMPlanner(PolicyConfig(name="em"), planning, EMConfig(**em))
+    return EMPlanner(PolicyConfig(name="em"), planning, EMConfig(**{"backend": "reference", **em}))
 
 
 def utility_of(graph: PoseGraph, occupancy: OccupancyGrid) -> float:

@@ -78,6 +78,9 @@ def test_observed_information_inverts_noise_plus_gain_covariance_gain():
 def test_unknown_backend_fails_in_one_line():
     with pytest.raises(ValueError, match="planning.em.backend='isam3': choose fast or reference"):
         EMConfig(backend="isam3").validate()
+    with pytest.raises(ValueError, match="planning.em.backend='isam3'"):
+        load_config(["planning.em.backend=isam3"])
+    assert load_config([]).planning.em.backend == "fast"  # the default once equivalent (this file)
 
 
 # ---------------------------------------------------------------------- exact agreement
