@@ -300,14 +300,22 @@ def matched_travel_markdown(table: Sequence[dict]) -> str:
 # ---------------------------------------------------------------------- plots
 
 
-def mean_curve(runs: Sequence[dict], metric: str, points: int = 200) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(travel, mean, std)`` of ``metric`` against travel over the trials: each trial's
+# the spread band of the plots: these percentiles over the trials (interquartile range).
+# Not mean +- std: that goes below zero for a positive quantity with a skewed spread.
+BAND_PERCENTILES = (25.0, 75.0)
+BAND_LABEL = "line: mean over trials; band: interquartile range (25-75 %)"
+
+
+def mean_curve(runs: Sequence[dict], metric: str, points: int = 200
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(travel, mean, low, high)`` of ``metric`` against travel over the trials, ``low``
+    and ``high`` the :data:`BAND_PERCENTILES` (the interquartile range): each trial's
     decisions linearly interpolated, its final value held once it has ended (the robot
     stopped; its map stays as it was), up to the travel where half of the trials ended."""
     curves = [(np.array([row["travel_m"] for row in r["rows"]]), np.array([row[metric] for row in r["rows"]], float))
               for r in runs if r["rows"]]
     if not curves:
-        return np.zeros(0), np.zeros(0), np.zeros(0)
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
     end = float(np.median([travel[-1] for travel, _ in curves]))
     grid = np.linspace(min(travel[0] for travel, _ in curves), end, points)
     values = np.full((len(curves), points), np.nan)
@@ -315,23 +323,25 @@ def mean_curve(runs: Sequence[dict], metric: str, points: int = 200) -> tuple[np
         started = grid >= travel[0]
         values[i, started] = np.interp(grid[started], travel, metric_values)  # holds the last value
     keep = np.isfinite(values).any(axis=0)
+    kept = values[:, keep]
     with np.errstate(invalid="ignore"):
-        return grid[keep], np.nanmean(values[:, keep], axis=0), np.nanstd(values[:, keep], axis=0)
+        low, high = np.nanpercentile(kept, BAND_PERCENTILES, axis=0)
+        return grid[keep], np.nanmean(kept, axis=0), low, high
 
 
 def plot_metric(ax, runs: Sequence[dict], metric: str, ylabel: str, title: str = "") -> None:
-    """One line per policy (the mean over trials) with a +-1 std band."""
+    """One line per policy (the mean over trials) with an interquartile band (the legend says so)."""
     for policy in policy_order(r["policy"] for r in runs):
         group = [r for r in runs if r["policy"] == policy and r["status"] != "error"]
-        travel, mean, std = mean_curve(group, metric)
+        travel, mean, low, high = mean_curve(group, metric)
         if not len(travel):
             continue
         colour = COLOURS.get(policy)
         ax.plot(travel, mean, color=colour, label=f"{policy} ({len(group)})")
-        ax.fill_between(travel, mean - std, mean + std, color=colour, alpha=0.2, linewidth=0)
+        ax.fill_between(travel, low, high, color=colour, alpha=0.2, linewidth=0)
     ax.set(xlabel="travel distance [m]", ylabel=ylabel, title=title)
     ax.grid(alpha=0.3)
-    ax.legend()
+    ax.legend(title=BAND_LABEL, title_fontsize="small")
 
 
 PLOTS = (("map_error_m", "map error [m]", "map error"), ("volume_m3", "3D occupied volume [m$^3$]", "3D volume"))

@@ -9,10 +9,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from explore_rl import comparison
 from explore_rl.config import load_config
+from explore_rl.viz import plt
 from tests.policy_files import actor_file
 
 EVAL = "import sys; from explore_rl.cli import evaluate; sys.argv[0] = 'explore-rl-eval'; evaluate()"
@@ -95,9 +97,29 @@ def test_summary_means_stds_and_failed_trials():
 def test_mean_curve_holds_each_trials_last_value_up_to_the_median_end():
     runs = [synthetic_run("nearest", 0, [0.0, 1.0]), synthetic_run("nearest", 1, [0.0, 1.0, 1.0, 3.0]),
             synthetic_run("nearest", 2, [0.0, 1.0, 2.0])]
-    travel, mean, std = comparison.mean_curve(runs, "map_error_m", points=5)
+    travel, mean, low, high = comparison.mean_curve(runs, "map_error_m", points=5)
     assert travel[0] == 2.0 and travel[-1] == 6.0  # median of the ends 4, 8, 6
     assert mean[-1] == pytest.approx((1.0 + 1.0 + 2.0) / 3)  # trial 0 holds its last value
+    # the band: the interquartile range of (1, 1, 2), numpy's linear percentiles by hand
+    assert (low[-1], high[-1]) == pytest.approx((1.0, 1.5))
+
+
+def test_the_spread_band_is_interquartile_and_stays_within_the_trials_values():
+    """A positive metric with a skewed spread: mean - std would go below zero, the band does not."""
+    runs = [synthetic_run("em", t, values) for t, values in
+            enumerate([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 3.0]])]
+    travel, mean, low, high = comparison.mean_curve(runs, "map_error_m", points=3)
+    finals = np.array([0.0, 0.0, 0.0, 3.0])
+    assert mean[-1] == pytest.approx(0.75) and mean[-1] - finals.std() < 0
+    assert (low[-1], high[-1]) == pytest.approx((0.0, 0.75))  # sorted 0, 0, 0, 3: quartiles at 0 and 0.75
+    assert np.all(low >= 0.0) and np.all(low <= mean + 1e-12) and np.all(high <= 3.0)
+    fig, ax = plt.subplots()
+    comparison.plot_metric(ax, runs, "map_error_m", "map error [m]")
+    assert ax.get_legend().get_title().get_text() == comparison.BAND_LABEL
+    assert "interquartile" in comparison.BAND_LABEL
+    (band,) = ax.collections
+    assert band.get_paths()[0].vertices[:, 1].min() >= 0.0
+    plt.close(fig)
 
 
 def test_matched_travel_compares_policies_after_the_reference_policys_mean_travel():
