@@ -1,42 +1,89 @@
-"""Decisions per second of the TorchRL environment, and where a step's time goes.
+"""Decisions per second of the TorchRL environment with EM's fast and reference backends,
+and where a step's time goes.
 
-Office, ``slam=model``, one process. Three runs on the same seed and start:
+Office, ``slam=model``, one process, the same seed, starts and random valid actions
+(``torch.manual_seed``) for every run, so both EM backends score the same states:
 
-* the env with random valid actions (the figure training sees early on): decisions/s
-  and per decision the time in observe (escape, frontiers, Dijkstra), context (action
-  set, pose marginals, virtual map: what the graph features and EM share), graph
-  (graph + padding), reward (EM on every frontier node) and drive (path with SLAM);
-* the env following EM's choice (``em_action``) and
-* the plain runner with ``policy=em`` (the baseline): both make the same decisions, so
-  the difference is the environment's own overhead.
+* the env with random valid actions (the figure training sees early on), once with
+  ``planning.em.backend=fast`` (the default) and once with ``reference`` (an iSAM2 copy
+  per loop candidate, one marginal query per pose): decisions/s of each and their ratio
+  (``speedup``), the fraction of decisions where EM chose the same frontier
+  (``same_em_choice``), the largest gap between their Algorithm 1 rewards, and per
+  decision the time in observe (escape, frontiers, Dijkstra), context (action set, pose
+  marginals, virtual map: what the graph features and EM share), graph (graph +
+  padding), reward (EM on every frontier node) and drive (path with SLAM);
+* the env following EM's choice (``em_action``) and the plain runner with ``policy=em``
+  (the baseline): both make the same decisions, so the difference is the environment's
+  own overhead (fast backend).
 
-    python benchmarks/bench_env.py [--quick | --smoke]
+``--profile`` instead runs cProfile over the random-action episodes (at least
+``PROFILE_DECISIONS`` decisions) with each backend: the share of each part and the top
+functions inside reward and drive, written to ``benchmarks/results/profile_env_<backend>.txt``.
+
+    python benchmarks/bench_env.py [--quick | --smoke] [--profile]
 """
 
 from __future__ import annotations
 
+import argparse
+import cProfile
 import dataclasses
+import io
+import pstats
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
+import torch
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine, parse_args  # noqa: E402
+from common import emit, machine  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.envs import make_env  # noqa: E402
+from explore_rl.planning.em import EMPlanner  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
 
 STAGES = ("observe", "context", "graph", "reward", "drive")
+BACKENDS = ("fast", "reference")
+PROFILE_DECISIONS = 40
+TOP_FUNCTIONS = 15
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
-def run_env(config, episodes: int, max_decisions: int, follow_em: bool) -> dict:
-    """Episodes of the env with random valid actions (or EM's); figures per decision."""
+def parse_args() -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="short episodes, under a few minutes")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
+    parser.add_argument("--profile", action="store_true",
+                        help="cProfile each backend over >= 40 random-action decisions (logs in benchmarks/results/)")
+    return parser.parse_args()
+
+
+def with_backend(config, backend: str):
+    """``config`` with ``planning.em.backend=backend``."""
+    em = dataclasses.replace(config.planning.em, backend=backend)
+    return dataclasses.replace(config, planning=dataclasses.replace(config.planning, em=em))
+
+
+def run_env(config, episodes: int, max_decisions: int, follow_em: bool, min_decisions: int = 0) -> dict:
+    """Episodes of the env with random valid actions (or EM's); figures per decision and
+    each decision's EM choice and Algorithm 1 rewards. Runs at least ``episodes`` episodes
+    and more until ``min_decisions`` decisions."""
     env = make_env(config)
-    decisions, start = 0, time.perf_counter()
-    for _ in range(episodes):
+    env.reset()  # warm-up (first-call costs of the process), not timed; every run does the same
+    env.timer.seconds.clear()
+    torch.manual_seed(0)
+    decisions, em_actions, rewards, start = 0, [], [], time.perf_counter()
+    episode = 0
+    while episode < episodes or decisions < min_decisions:
         td = env.reset()
+        episode += 1
         for _ in range(max_decisions):
+            em_actions.append(int(td["em_action"]))
+            rewards.append(td["action_rewards"].numpy().copy())
             td = td.set("action", td["em_action"]) if follow_em else env.rand_action(td)
             td = env.step(td)["next"]
             decisions += 1
@@ -46,11 +93,12 @@ def run_env(config, episodes: int, max_decisions: int, follow_em: bool) -> dict:
     timings = env.timings_ms()
     per_decision = {f"ms_{stage}": round(timings.get(stage, 0.0) / max(decisions, 1), 1) for stage in STAGES}
     step_ms = 1e3 * wall / max(decisions, 1)
-    return {"decisions": decisions, "wall_s": round(wall, 1),
+    return {"decisions": decisions, "episodes": episode, "wall_s": round(wall, 1),
             "decisions_per_s": round(decisions / wall, 3), "ms_per_decision": round(step_ms, 1),
             **per_decision, "graph_fraction": round(per_decision["ms_graph"] / step_ms, 4),
             "max_nodes_seen": env.max_nodes_seen, "failures": dict(env.failures),
-            "explored": round(float(td["explored"]), 4), "travel_m": round(float(td["travel"]), 1)}
+            "explored": round(float(td["explored"]), 4), "travel_m": round(float(td["travel"]), 1),
+            "em_actions": em_actions, "rewards": rewards}
 
 
 def run_runner_em(config, max_decisions: int) -> dict:
@@ -69,27 +117,126 @@ def run_runner_em(config, max_decisions: int) -> dict:
             "explored": round(result.records[-1].explored, 4), "travel_m": round(explorer.robot.travelled, 1)}
 
 
-def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+def agreement(fast: dict, reference: dict) -> dict:
+    """Same EM choice and reward gap over the decisions both runs scored."""
+    count = min(len(fast["em_actions"]), len(reference["em_actions"]))
+    same = [a == b for a, b in zip(fast["em_actions"][:count], reference["em_actions"][:count])]
+    gaps = [float(np.abs(a - b).max()) for a, b in zip(fast["rewards"][:count], reference["rewards"][:count])]
+    return {"compared_decisions": count, "same_em_choice": round(float(np.mean(same)), 4) if same else None,
+            "max_reward_gap": round(max(gaps), 4) if gaps else None}
+
+
+def summary(run: dict) -> dict:
+    return {k: v for k, v in run.items() if k not in ("em_actions", "rewards")}
+
+
+def benchmark(args: argparse.Namespace) -> None:
     episodes, max_decisions = (1, 2) if args.smoke else (1, 12) if args.quick else (3, 300)
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
                           f"explore.max_decisions={max_decisions}"])
-    random = run_env(config, episodes, max_decisions, follow_em=False)
+    runs = {backend: run_env(with_backend(config, backend), episodes, max_decisions, follow_em=False)
+            for backend in BACKENDS}
+    fast, reference = runs["fast"], runs["reference"]
     env_em = run_env(config, 1, max_decisions, follow_em=True)
     runner_em = run_runner_em(config, max_decisions)
-    for name, r in (("env random", random), ("env em", env_em), ("runner em", runner_em)):
-        print(f"{name:11s} {r['decisions']:4d} decisions {r['wall_s']:7.1f} s  {r['decisions_per_s']:.3f}/s")
-    print("per decision (env random):", {k: v for k, v in random.items() if k.startswith("ms_")})
+    for name, r in (("env fast", fast), ("env reference", reference), ("env em", env_em), ("runner em", runner_em)):
+        print(f"{name:14s} {r['decisions']:4d} decisions {r['wall_s']:7.1f} s  {r['decisions_per_s']:.3f}/s")
+    for name, r in (("fast", fast), ("reference", reference)):
+        print(f"per decision ({name}):", {k: v for k, v in r.items() if k.startswith("ms_")})
+    same = agreement(fast, reference)
+    print("agreement:", same)
     emit({"benchmark": "env", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
-          "decisions_per_s": random["decisions_per_s"],
-          **{k: random[k] for k in ("ms_observe", "ms_context", "ms_graph", "ms_reward", "ms_drive",
-                                    "graph_fraction", "max_nodes_seen")},
+          "decisions_per_s": fast["decisions_per_s"],
+          "decisions_per_s_reference": reference["decisions_per_s"],
+          "speedup": round(fast["decisions_per_s"] / reference["decisions_per_s"], 3),
+          **same,
+          "reward_ms": fast["ms_reward"], "reward_ms_reference": reference["ms_reward"],
+          "reward_speedup": round(reference["ms_reward"] / max(fast["ms_reward"], 1e-9), 2),
+          **{k: fast[k] for k in ("ms_observe", "ms_context", "ms_graph", "ms_reward", "ms_drive",
+                                  "graph_fraction", "max_nodes_seen")},
+          **{f"{k}_reference": reference[k] for k in ("ms_observe", "ms_context", "ms_graph", "ms_reward",
+                                                      "ms_drive")},
           "decisions_per_s_env_em": env_em["decisions_per_s"],
           "decisions_per_s_runner_em": runner_em["decisions_per_s"],
           "env_em_over_runner_em": round(env_em["decisions_per_s"] / runner_em["decisions_per_s"], 3),
           "same_decisions": env_em["decisions"] == runner_em["decisions"]
           and env_em["travel_m"] == runner_em["travel_m"],
-          "env_random": random, "env_em": env_em, "runner_em": runner_em})
+          "env_fast": summary(fast), "env_reference": summary(reference), "env_em": summary(env_em),
+          "runner_em": runner_em})
+
+
+# ---------------------------------------------------------------------- profile
+
+
+class PartProfiler:
+    """cProfile switched on only inside ``EMPlanner.evaluate`` (reward) or ``Explorer.act``
+    (drive): the functions each part spends its time in."""
+
+    def __init__(self) -> None:
+        self.profiles = {"reward": cProfile.Profile(), "drive": cProfile.Profile()}
+        self._originals = {}
+
+    def __enter__(self) -> PartProfiler:
+        for part, owner, name in (("reward", EMPlanner, "evaluate"), ("drive", Explorer, "act")):
+            original = getattr(owner, name)
+            self._originals[(owner, name)] = original
+            setattr(owner, name, self._wrap(self.profiles[part], original))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for (owner, name), original in self._originals.items():
+            setattr(owner, name, original)
+
+    @staticmethod
+    def _wrap(profile: cProfile.Profile, method):
+        def wrapped(*args, **kwargs):
+            profile.enable()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                profile.disable()
+        return wrapped
+
+    def top(self, part: str) -> str:
+        out = io.StringIO()
+        pstats.Stats(self.profiles[part], stream=out).sort_stats("tottime").print_stats(TOP_FUNCTIONS)
+        return out.getvalue()
+
+
+def profile(args: argparse.Namespace) -> None:
+    """Shares of each part and the top functions inside reward and drive, per backend."""
+    minimum = 2 if args.smoke else PROFILE_DECISIONS
+    config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
+                          "explore.max_decisions=300"])
+    result = {"benchmark": "env_profile", "smoke": args.smoke, "machine": machine()}
+    for backend in BACKENDS:
+        with PartProfiler() as profiler:
+            run = run_env(with_backend(config, backend), 1, 2 if args.smoke else 300, follow_em=False,
+                          min_decisions=minimum)
+        step = run["ms_per_decision"]
+        shares = {stage: round(run[f"ms_{stage}"] / step, 3) for stage in STAGES}
+        text = [f"bench_env --profile, planning.em.backend={backend}: {run['decisions']} decisions in "
+                f"{run['episodes']} episodes, {run['decisions_per_s']} decisions/s, {step} ms per decision, "
+                f"load {machine()['load_average_1min']}",
+                "share of a step: " + ", ".join(f"{k} {100 * v:.1f} % ({run[f'ms_{k}']} ms)" for k, v in shares.items()),
+                "", "=== inside reward (EMPlanner.evaluate), by own time ===", profiler.top("reward"),
+                "=== inside drive (Explorer.act), by own time ===", profiler.top("drive")]
+        if not args.smoke:
+            RESULTS.mkdir(exist_ok=True)
+            (RESULTS / f"profile_env_{backend}.txt").write_text("\n".join(text))
+        print("\n".join(text[:2]))
+        result[backend] = {"decisions": run["decisions"], "decisions_per_s": run["decisions_per_s"],
+                           "ms_per_decision": step, "shares": shares,
+                           **{f"ms_{k}": run[f"ms_{k}"] for k in STAGES}}
+    emit(result)
+
+
+def main() -> None:
+    args = parse_args()
+    if args.profile:
+        profile(args)
+    else:
+        benchmark(args)
 
 
 if __name__ == "__main__":
