@@ -21,6 +21,7 @@ from explore_rl.mapping.config import MAP_UPDATES, MappingConfig
 from explore_rl.models.config import ModelConfig
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.policies import PolicyConfig
+from explore_rl.resources import conf_dir
 from explore_rl.robot import RobotConfig
 from explore_rl.runner import ExploreConfig
 from explore_rl.scene.config import SceneConfig, validate_building
@@ -40,7 +41,7 @@ from explore_rl.trainer.config import (
     TrainConfig,
 )
 
-CONF_DIR = str(Path(__file__).resolve().parent.parent / "conf")
+CONF_DIR = str(conf_dir())  # the repository's conf/ or the wheel's copy (explore_rl/resources.py)
 
 
 @dataclass

@@ -32,11 +32,12 @@ import torch
 from explore_rl.graph.exploration_graph import FEATURES
 from explore_rl.models.actor_critic import GraphActor
 from explore_rl.models.config import ModelConfig
+from explore_rl.resources import shipped_file
 from explore_rl.trainer.checkpoint import FORMAT as TRAINING_FORMAT
 from explore_rl.trainer.checkpoint import CheckpointError, check_model, check_weights, read_checkpoint
 
 ACTOR_FORMAT = "explore_rl.actor/1"
-DEFAULT_ACTOR = "policies/office_a2c/actor.pt"  # the shipped policy (relative to the repository)
+DEFAULT_ACTOR = "policies/office_a2c/actor.pt"  # the shipped policy (explore_rl/resources.py finds it)
 TRAINING_PREFIX = "module.0.module."  # ProbabilisticActor -> TensorDictModule -> GraphActor
 HOW_TO_GET_ONE = ("train one with `explore-rl-train scene=office slam=model out=runs/office`, then "
                   "`explore-rl-export runs/office/checkpoints/best.pt " + DEFAULT_ACTOR + "`")
@@ -59,11 +60,15 @@ class ActorFile:
 
 def resolve(path: str | Path | None) -> Path:
     """``path``; None or the default ``policies/office_a2c/actor.pt`` mean the shipped policy,
-    found from the working directory or else in the repository this package lives in."""
+    found from the working directory or else where the package keeps it (the repository of
+    an editable install, the wheel's package data)."""
     if path in (None, "") or Path(path) == Path(DEFAULT_ACTOR):
         local = Path(DEFAULT_ACTOR)
-        repository = Path(__file__).resolve().parents[2] / DEFAULT_ACTOR
-        return local if local.exists() or not repository.exists() else repository
+        try:
+            shipped = shipped_file(DEFAULT_ACTOR)  # the repository's or the wheel's (explore_rl/resources.py)
+        except FileNotFoundError:
+            return local
+        return local if local.exists() or not shipped.exists() else shipped
     return Path(path)
 
 

@@ -28,7 +28,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-CONF_CALIBRATION = Path(__file__).resolve().parents[2] / "conf" / "calibration"
+from explore_rl.resources import conf_dir
+
+CONF_CALIBRATION = conf_dir() / "calibration"  # the repository's conf/ or the wheel's copy
 SCAN_MATCHING_FILE = CONF_CALIBRATION / "scan_matching.yaml"
 LOOP_CLOSURES_FILE = CONF_CALIBRATION / "loop_closures.yaml"
 
