@@ -448,6 +448,8 @@ class EMPlanner:
         by the low-rank update, the old observations re-fused for all candidates in one
         pass (``fuse_batched``), then each candidate's new poses in order."""
         ssm, loop = ssm_covariance(self.em), loop_covariance(self.em)
+        revisited = {r.keyframe_index for p in predicted for r in p.revisits}
+        context.fast.marginals.columns(sorted(revisited) + [len(context.poses) - 1])  # one solve for all
         covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
         old = context.observations
         prior = context.vmap.prior_covariances()

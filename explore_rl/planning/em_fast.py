@@ -140,9 +140,9 @@ def fast_world_covariances(graph: PoseGraph, poses: np.ndarray) -> tuple[np.ndar
 def step_tangent_covariances(graph: PoseGraph, steps: np.ndarray, ssm_cov: np.ndarray) -> np.ndarray:
     """``(P, 6, 6)`` noise of each predicted step: odometry and scan matching join the same
     poses at the same mean, so they act as one factor with the summed information."""
-    ssm_info = np.linalg.inv(ssm_cov)
-    odom = np.stack([odometry_covariance(graph.config, int(n)) for n in steps])
-    return np.linalg.inv(np.linalg.inv(odom) + ssm_info)
+    odom = {int(n): odometry_covariance(graph.config, int(n)) for n in np.unique(steps)}
+    fused = {n: np.linalg.inv(np.linalg.inv(cov) + np.linalg.inv(ssm_cov)) for n, cov in odom.items()}
+    return np.stack([fused[int(n)] for n in steps])
 
 
 @dataclass
@@ -289,10 +289,23 @@ def observed_information(gain: np.ndarray, noise: np.ndarray, pose_covs: np.ndar
     """``(3, M, C)`` information components of ``noise + gain S gain^T`` for each
     observation ``(gain (M, 2, 3), noise (M, 2, 2))`` of pose ``pose_idx (M,)`` and each of
     ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)``: component arithmetic on
-    contiguous ``(M, C)`` arrays (a gathered ``(C, M, 3, 3)`` stack is slower and large)."""
+    ``(rows, C)`` arrays, ``OBSERVATION_CHUNK`` rows at a time (temporaries stay in cache;
+    a gathered ``(C, M, 3, 3)`` stack is slower and large)."""
     covs = np.ascontiguousarray(np.moveaxis(pose_covs, 0, -1))  # (N, 3, 3, C)
-    s00, s01, s02, s11, s12, s22 = (covs[:, i, j][pose_idx] for i, j in
-                                    ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))
+    components = [np.ascontiguousarray(covs[:, i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))]
+    out = np.empty((3, len(gain), pose_covs.shape[0]))
+    for begin in range(0, len(gain), OBSERVATION_CHUNK):
+        rows = slice(begin, begin + OBSERVATION_CHUNK)
+        out[:, rows] = _observed_chunk(gain[rows], noise[rows], [c[pose_idx[rows]] for c in components])
+    return out
+
+
+OBSERVATION_CHUNK = 4096
+
+
+def _observed_chunk(gain: np.ndarray, noise: np.ndarray, covs: list[np.ndarray]) -> np.ndarray:
+    """:func:`observed_information` of one chunk (``covs``: the six components, ``(rows, C)``)."""
+    s00, s01, s02, s11, s12, s22 = covs
     a0, a1, a2, b0, b1, b2 = (gain[:, i, j, None] for i in range(2) for j in range(3))
     u0, u1, u2 = a0 * s00 + a1 * s01 + a2 * s02, a0 * s01 + a1 * s11 + a2 * s12, a0 * s02 + a1 * s12 + a2 * s22
     v0, v1, v2 = b0 * s00 + b1 * s01 + b2 * s02, b0 * s01 + b1 * s11 + b2 * s12, b0 * s02 + b1 * s12 + b2 * s22
