@@ -59,11 +59,17 @@ def parse_args() -> argparse.Namespace:
                         help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
     parser.add_argument("--profile", action="store_true",
                         help="cProfile each backend over >= 40 random-action decisions (logs in benchmarks/results/)")
+    parser.add_argument("--backend", choices=BACKENDS, action="append",
+                        help="--profile only these backends (repeatable; default both)")
+    parser.add_argument("--tag", default="", help="--profile: suffix of the log names (e.g. _before)")
     return parser.parse_args()
 
 
 def with_backend(config, backend: str):
-    """``config`` with ``planning.em.backend=backend``."""
+    """``config`` with ``planning.em.backend=backend`` (code from before the knob existed
+    is the reference: ``--profile --backend reference`` also profiles an older checkout)."""
+    if not hasattr(config.planning.em, "backend") and backend == "reference":
+        return config
     em = dataclasses.replace(config.planning.em, backend=backend)
     return dataclasses.replace(config, planning=dataclasses.replace(config.planning, em=em))
 
@@ -209,7 +215,7 @@ def profile(args: argparse.Namespace) -> None:
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
                           "explore.max_decisions=300"])
     result = {"benchmark": "env_profile", "smoke": args.smoke, "machine": machine()}
-    for backend in BACKENDS:
+    for backend in args.backend or BACKENDS:
         with PartProfiler() as profiler:
             run = run_env(with_backend(config, backend), 1, 2 if args.smoke else 300, follow_em=False,
                           min_decisions=minimum)
@@ -223,7 +229,7 @@ def profile(args: argparse.Namespace) -> None:
                 "=== inside drive (Explorer.act), by own time ===", profiler.top("drive")]
         if not args.smoke:
             RESULTS.mkdir(exist_ok=True)
-            (RESULTS / f"profile_env_{backend}.txt").write_text("\n".join(text))
+            (RESULTS / f"profile_env_{backend}{args.tag}.txt").write_text("\n".join(text))
         print("\n".join(text[:2]))
         result[backend] = {"decisions": run["decisions"], "decisions_per_s": run["decisions_per_s"],
                            "ms_per_decision": step, "shares": shares,
