@@ -155,6 +155,7 @@ def validate(config: Config) -> None:
                          f"{config.planning.actions.max_frontiers} (the current pose and every frontier are nodes)")
     config.compare.validate()
     config.model.validate()
+    validate_features(config)
     config.evaluate.validate()
     validate_training(config)
 
@@ -242,6 +243,17 @@ def validate_explore(config: Config) -> None:
     checks.non_negative("explore.escape.clearance", explore.escape.clearance)
     checks.at_least("explore.escape.directions", explore.escape.directions, 2)
     checks.at_least("explore.escape.max_steps", explore.escape.max_steps, 1)
+
+
+def validate_features(config: Config) -> None:
+    """``graph.features`` names a feature set; an explicit ``model.feature_scale`` fits it."""
+    from explore_rl.graph.features import feature_names
+
+    names = feature_names(config.graph.features)
+    scale = config.model.feature_scale
+    if scale is not None and len(scale) != len(names):
+        raise ValueError(f"model.feature_scale has {len(scale)} entries but graph.features={config.graph.features} "
+                         f"gives {len(names)} node features: give {len(names)} or model.feature_scale=null")
 
 
 def validate_training(config: Config) -> None:

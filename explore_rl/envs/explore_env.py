@@ -39,6 +39,7 @@ from torchrl.envs import EnvBase
 from explore_rl.config import Config
 from explore_rl.graph.encode import EncodedGraph, encode
 from explore_rl.graph.exploration_graph import ExplorationGraph, graph_from_state
+from explore_rl.graph.features import feature_names
 from explore_rl.planning.actions import Action
 from explore_rl.planning.em import EMPlanner
 from explore_rl.planning.policies import PolicyConfig
@@ -114,7 +115,7 @@ class ExplorationEnv(EnvBase):
         n, device = self.max_nodes, self.device
         flag = dict(n=2, dtype=torch.bool, device=device)
         self.observation_spec = Composite(
-            x=Unbounded((n, 4), dtype=torch.float32, device=device),
+            x=Unbounded((n, len(feature_names(self.config.graph.features))), dtype=torch.float32, device=device),
             adj=Unbounded((n, n), dtype=torch.float32, device=device),
             node_mask=Categorical(shape=(n,), **flag),
             action_mask=Categorical(shape=(n,), **flag),
@@ -298,7 +299,7 @@ class ExplorationEnv(EnvBase):
             actions = self.em.actions(state)
             context = self.em.decision_context(state)
         with self.timer("graph"):
-            graph = graph_from_state(state, context, actions)
+            graph = self.graph(state, context, actions)
             encoded = encode(graph, self.max_nodes)
         self.max_nodes_seen = max(self.max_nodes_seen, graph.num_nodes)
         rewards, em_choice = None, -1
@@ -310,6 +311,11 @@ class ExplorationEnv(EnvBase):
                 log.exception("EM evaluation failed at decision %d; reward 0", len(self.explorer.result.records))
                 self.failures["em"] += 1
         return Decision(state, actions, graph, encoded, rewards, em_choice)
+
+    def graph(self, state: ExplorationState, context, actions: list[Action]) -> ExplorationGraph:
+        """The exploration graph with the node features of ``graph.features``."""
+        return graph_from_state(state, context, actions, self.config.graph.features,
+                                self.config.planning.virtual_map.sensor_range)
 
     def bootstrap_decision(self) -> Decision | None:
         """At a truncation (travel budget, decision cap, a failed step): the graph of the
@@ -326,7 +332,7 @@ class ExplorationEnv(EnvBase):
                 actions = self.em.actions(state)
                 context = self.em.decision_context(state)
             with self.timer("graph"):
-                graph = graph_from_state(state, context, actions)
+                graph = self.graph(state, context, actions)
                 encoded = encode(graph, self.max_nodes)
         except Exception:  # noqa: BLE001 -- the episode is over anyway
             log.exception("episode %d: the final state could not be observed; it ends terminated",

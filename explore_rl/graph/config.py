@@ -13,3 +13,6 @@ class GraphConfig:
     # farthest from the current pose first. An office episode has ~300-550 keyframes;
     # a garage evaluation ~800: raise it there (graph.max_nodes=1024).
     max_nodes: int = 512
+    # node features: paper (uncertainty, distance, bearing, identity) | extended (+ per-frontier
+    # path length, size, unknown nearby, revisits and their uncertainty, landmark uncertainty)
+    features: str = "paper"

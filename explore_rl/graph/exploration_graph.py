@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from explore_rl.graph.features import PAPER, frontier_extras
 from explore_rl.planning.actions import Action
 
 if TYPE_CHECKING:
@@ -33,7 +34,7 @@ if TYPE_CHECKING:
     from explore_rl.state import ExplorationState
 
 CURRENT, FRONTIER, POSE = 0.0, 1.0, -1.0  # identity feature
-FEATURES = ("uncertainty", "distance", "bearing", "identity")
+FEATURES = PAPER  # the paper's node features (graph.features=paper); explore_rl/graph/features.py
 
 
 @dataclass
@@ -41,7 +42,7 @@ class ExplorationGraph:
     """Nodes (keyframes first, in keyframe order, then frontiers, nearest first) and edges."""
 
     xy: np.ndarray  # (n, 2) world positions
-    features: np.ndarray  # (n, 4) see FEATURES
+    features: np.ndarray  # (n, F) the paper's FEATURES, then any extended columns
     edges: np.ndarray  # (E, 2) int node pairs, i < j, unique
     weights: np.ndarray  # (E,) Euclidean length of each edge (m)
     keyframe: np.ndarray  # (n,) keyframe index of a pose node, -1 for a frontier
@@ -91,6 +92,7 @@ def build_graph(
     frontier_revisits: Sequence[Sequence[int]],
     current: int | None = None,
     frontier_candidates: Sequence[int] | None = None,
+    frontier_extra: np.ndarray | None = None,
 ) -> ExplorationGraph:
     """The exploration graph from plain arrays.
 
@@ -101,6 +103,7 @@ def build_graph(
     of their virtual landmarks' covariance; ``frontier_revisits[f]``: keyframes the path to
     frontier ``f`` revisits. ``current``: the current keyframe (default: the newest).
     ``frontier_candidates``: what each frontier node refers to (default ``0..F-1``).
+    ``frontier_extra (F, E)``: extra frontier columns (``graph.features=extended``), 0 on poses.
     """
     pose_xy = np.asarray(pose_xy, float).reshape(-1, 2)
     frontier_xy = np.asarray(frontier_xy, float).reshape(-1, 2)
@@ -127,6 +130,10 @@ def build_graph(
         np.arctan2(offset[:, 1], offset[:, 0]),
         identity,
     ])
+    if frontier_extra is not None:
+        frontier_extra = np.asarray(frontier_extra, float).reshape(n_frontiers, -1)
+        features = np.column_stack([features, np.vstack([np.zeros((n_poses, frontier_extra.shape[1])),
+                                                         frontier_extra])])
     candidates = np.arange(n_frontiers) if frontier_candidates is None else np.asarray(frontier_candidates)
     return ExplorationGraph(
         xy=xy, features=features, edges=edges, weights=weights,
@@ -149,17 +156,22 @@ def factor_edges(edges: Sequence[tuple[int, int, str]]) -> np.ndarray:
 
 
 def graph_from_state(state: ExplorationState, context: DecisionContext,
-                     actions: list[Action]) -> ExplorationGraph:
+                     actions: list[Action], features: str = "paper", sensor_range: float = 3.0) -> ExplorationGraph:
     """The exploration graph of a running exploration at a decision.
 
     ``context`` (:func:`explore_rl.planning.em.make_decision_context`) holds the keyframe
     marginals and the virtual map; ``actions`` the frontiers (nearest first) and their
-    predicted revisits.
+    predicted revisits. ``features``: ``graph.features`` (``extended`` adds the columns of
+    explore_rl/graph/features.py, measured within ``sensor_range`` of each frontier).
     """
     frontier_covs = context.vmap.frontier_landmark_covariance(action_frontiers(state, actions),
                                                               context.landmark_covs)
+    extra = None
+    if features == "extended":
+        extra = frontier_extras(state, actions, context.pose_covs, context.vmap.landmark_xy, context.landmark_covs,
+                                sensor_range)
     return graph_from_estimates(state, actions, context.poses, context.pose_covs, frontier_covs,
-                                factor_edges(context.graph.edges))
+                                factor_edges(context.graph.edges), extra)
 
 
 def action_frontiers(state: ExplorationState, actions: list[Action]) -> np.ndarray:
@@ -169,7 +181,7 @@ def action_frontiers(state: ExplorationState, actions: list[Action]) -> np.ndarr
 
 def graph_from_estimates(state: ExplorationState, actions: list[Action], poses: np.ndarray,
                          pose_covs: np.ndarray, frontier_covs: np.ndarray,
-                         pose_edges: np.ndarray) -> ExplorationGraph:
+                         pose_edges: np.ndarray, frontier_extra: np.ndarray | None = None) -> ExplorationGraph:
     """The exploration graph from keyframe estimates ``poses (K, 3)``, their world-frame
     covariances ``pose_covs (K, 3, 3)`` (only the xy block is read), the action frontiers'
     virtual-landmark covariances ``frontier_covs (F, 2, 2)`` and the factor pairs.
@@ -180,4 +192,5 @@ def graph_from_estimates(state: ExplorationState, actions: list[Action], poses: 
     frontier_uncertainty = np.trace(frontier_covs, axis1=1, axis2=2)
     revisits = [[r.keyframe_index for r in a.prediction.revisits] for a in actions]
     return build_graph(poses[:, :2], pose_uncertainty, pose_edges, action_frontiers(state, actions),
-                       frontier_uncertainty, revisits, frontier_candidates=[a.candidate for a in actions])
+                       frontier_uncertainty, revisits, frontier_candidates=[a.candidate for a in actions],
+                       frontier_extra=frontier_extra)

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import torch
 from torch import Tensor, nn
 
+from explore_rl.graph.features import scales_for
 from explore_rl.models.config import ModelConfig
 from explore_rl.models.graph_unet import DenseGraphUNet, packed_rows
 
@@ -54,10 +55,10 @@ class FeatureScale(nn.Module):
 
     def __init__(self, config: ModelConfig, n_features: int):
         super().__init__()
-        if len(config.feature_scale) != n_features:
-            raise ValueError(f"model.feature_scale has {len(config.feature_scale)} entries for "
-                             f"{n_features} node features")
-        self.register_buffer("scale", torch.tensor(config.feature_scale, dtype=torch.float32))
+        scale = config.feature_scale if config.feature_scale is not None else scales_for(n_features)
+        if len(scale) != n_features:
+            raise ValueError(f"model.feature_scale has {len(scale)} entries for {n_features} node features")
+        self.register_buffer("scale", torch.tensor(scale, dtype=torch.float32))
 
     def forward(self, x: Tensor) -> Tensor:
         return x * self.scale

@@ -30,6 +30,7 @@ from typing import Any
 import torch
 
 from explore_rl.graph.exploration_graph import FEATURES
+from explore_rl.graph.features import feature_names, feature_set_of
 from explore_rl.models.actor_critic import GraphActor
 from explore_rl.models.config import ModelConfig
 from explore_rl.resources import shipped_file
@@ -56,6 +57,11 @@ class ActorFile:
     @property
     def n_features(self) -> int:
         return len(self.features)
+
+    @property
+    def feature_set(self) -> str:
+        """The ``graph.features`` this actor reads (paper or extended)."""
+        return feature_set_of(self.features)
 
 
 def resolve(path: str | Path | None) -> Path:
@@ -90,7 +96,8 @@ def read_actor_file(path: str | Path) -> ActorFile:
         meta.update(scene=config.get("scene", {}).get("name"), slam=config.get("slam", {}).get("frontend"),
                     seed=config.get("seed"), scene_seed=config.get("scene", {}).get("seed"),
                     train_layouts=config.get("env", {}).get("train_layouts"))
-        return ActorFile(model, weights, list(FEATURES), int(config.get("graph", {}).get("max_nodes", 512)), meta)
+        features = list(feature_names(config.get("graph", {}).get("features", "paper")))
+        return ActorFile(model, weights, features, int(config.get("graph", {}).get("max_nodes", 512)), meta)
     return ActorFile(model, payload["actor"], list(payload.get("features", FEATURES)),
                      int(payload.get("graph_max_nodes", 512)), dict(payload.get("meta", {})))
 
@@ -98,9 +105,10 @@ def read_actor_file(path: str | Path) -> ActorFile:
 def build_actor(path: str | Path, actor_file: ActorFile, expected_model: ModelConfig | None = None) -> GraphActor:
     """The checked ``GraphActor`` of ``actor_file`` (read from ``path``), in eval mode."""
     path = Path(path)
-    if actor_file.features != list(FEATURES):
-        raise CheckpointError(f"{path}: the actor reads {actor_file.n_features} node features "
-                              f"{actor_file.features}, the exploration graph gives {len(FEATURES)} {list(FEATURES)}")
+    try:
+        feature_set_of(actor_file.features)
+    except ValueError as error:
+        raise CheckpointError(f"{path}: {error}") from None
     if expected_model is not None:
         check_model(path, dataclasses.asdict(actor_file.model), expected_model)
     try:

@@ -8,7 +8,8 @@ Paper (Sec. III-A): two g-U-Nets (actor, critic), depth 3, 1000 hidden features,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Optional
 
 # How the metre edge weights of the exploration graph enter the GCN (see graph_unet.py).
 EDGE_WEIGHT_MODES = ("distance", "unit", "inverse")
@@ -30,9 +31,10 @@ class ModelConfig:
     edge_weight: str = "distance"
     min_edge_length: float = 0.1  # m; only used by edge_weight=inverse
     # Node features are multiplied by these before the first layer, so that each is of
-    # order one: [uncertainty (m^2, <= ~0.08), distance (m, <= ~30), bearing (rad), identity].
+    # order one (paper set: [uncertainty (m^2, <= ~0.08), distance (m, <= ~30), bearing (rad),
+    # identity]). None: the feature set's own scales (explore_rl/graph/features.py).
     # Part of the model: a checkpoint keeps them (deployment needs no extra step).
-    feature_scale: list[float] = field(default_factory=lambda: [10.0, 0.1, 1.0 / 3.141592653589793, 1.0])
+    feature_scale: Optional[list[float]] = None
 
     def validate(self) -> None:
         """Raise ValueError naming the first bad field (``model.<field>``) and what it must be."""
@@ -54,7 +56,8 @@ def _validate(config: ModelConfig) -> None:
     if config.edge_weight not in EDGE_WEIGHT_MODES:
         raise ValueError(f"model.edge_weight must be one of {', '.join(EDGE_WEIGHT_MODES)}, "
                          f"got {config.edge_weight!r}")
-    if not config.feature_scale or not all(v > 0 for v in config.feature_scale):
+    if config.feature_scale is not None and (not config.feature_scale
+                                             or not all(v > 0 for v in config.feature_scale)):
         raise ValueError(f"model.feature_scale must be positive numbers, got {config.feature_scale!r}")
     if not config.min_edge_length > 0.0:
         raise ValueError(f"model.min_edge_length must be positive, got {config.min_edge_length!r}")

@@ -41,7 +41,7 @@ from torchrl.objectives import A2CLoss, ValueEstimators
 
 from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env
-from explore_rl.graph.exploration_graph import FEATURES
+from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.trainer.checkpoint import Checkpoint, check_weights, load_checkpoint, save_checkpoint
 from explore_rl.trainer.episodes import EpisodeTracker
@@ -50,7 +50,6 @@ from explore_rl.trainer.logs import RunLogger
 
 log = logging.getLogger(__name__)
 
-N_FEATURES = len(FEATURES)  # uncertainty, distance, bearing, identity
 ESTIMATOR_TYPES = {"gae": ValueEstimators.GAE, "td_lambda": ValueEstimators.TDLambda,
                    "td0": ValueEstimators.TD0}
 BEST_WINDOW = 20  # finished episodes averaged for the "best" checkpoint
@@ -79,8 +78,9 @@ class Learner:
     def __init__(self, config: Config, action_spec=None):
         algo = config.algo
         self.config = config
-        self.actor = make_actor(config.model, N_FEATURES, action_spec)
-        self.critic = make_critic(config.model, N_FEATURES)
+        n_features = len(feature_names(config.graph.features))
+        self.actor = make_actor(config.model, n_features, action_spec)
+        self.critic = make_critic(config.model, n_features)
         self.loss = A2CLoss(self.actor, self.critic, entropy_coeff=algo.entropy_coef,
                             critic_coeff=algo.value_coef, loss_critic_type="smooth_l1")
         # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace
