@@ -196,12 +196,10 @@ class SparseMarginals:
                 depth[c] = depth[parent[c]] + 1
         below = np.diff(indptr) - 1
         width_class = np.ceil(np.log2(np.maximum(below, 1))).astype(int)  # pad within a power of two
-        levels = []
-        for level in range(depth.max() + 1):  # root first
-            at_level = depth == level
-            for width in np.unique(width_class[at_level]):
-                columns = np.flatnonzero(at_level & (width_class == width))
-                levels.append(self._level(columns, indptr, indices, keys, zero_id, n))
+        group = depth * (int(width_class.max()) + 1) + width_class  # root first, then by width
+        order = np.argsort(group, kind="stable")
+        bounds = np.flatnonzero(np.diff(group[order])) + 1
+        levels = [self._level(columns, indptr, indices, keys, zero_id, n) for columns in np.split(order, bounds)]
         return _Factor(blocks, np.linalg.inv(blocks[diag_ids]), d_inv, diag_ids, levels)
 
     @staticmethod
