@@ -286,6 +286,8 @@ def validate_training(config: Config) -> None:
         raise ValueError(f"algo.dagger_steps must be >= 0 (0 = no replay), got {algo.dagger_steps}")
     if algo.dagger_steps > 0 and algo.distill_coef == 0:
         raise ValueError("algo.dagger_steps > 0 needs algo.distill_coef > 0 (the weight of those steps)")
+    if not train.max_minutes >= 0:
+        raise ValueError(f"train.max_minutes must be >= 0 (0 = no wall-clock budget), got {train.max_minutes}")
     if train.snapshot_every < 0:
         raise ValueError(f"train.snapshot_every must be >= 0 (0 = no snapshots), got {train.snapshot_every}")
     for key, value in at_least_one.items():

@@ -291,8 +291,9 @@ class TrainingRun:
         A collector that raises (a worker died: an env error outside a step, e.g. at a
         reset) is rebuilt with fresh episodes, up to ``MAX_COLLECTOR_RESTARTS`` times.
         """
-        if self.state.frames >= self.config.train.frames:
-            log.info("nothing to do: %d of %d decisions already", self.state.frames, self.config.train.frames)
+        if self.finished():
+            log.info("nothing to do: %d of %d decisions, %.1f min already", self.state.frames,
+                     self.config.train.frames, self.state.wall_s / 60)
             return self.state
         collector = make_collector(self.config, self.learner.actor, self.episodes.replays())
         collector.update_policy_weights_()  # remote (Ray) collectors wait for a first sync
@@ -300,7 +301,7 @@ class TrainingRun:
             torch.set_rng_state(self.torch_rng)  # after building the collector, before acting
         start, restarts = time.perf_counter() - self.state.wall_s, 0
         try:
-            while self.state.frames < self.config.train.frames:
+            while not self.finished():
                 try:
                     self.collect_and_update(collector, start)
                 except CollectionError:  # a worker died: the run goes on with new workers
@@ -319,12 +320,18 @@ class TrainingRun:
             self.logger.close()
         return self.state
 
+    def finished(self) -> bool:
+        """``train.frames`` decisions collected, or ``train.max_minutes`` used."""
+        budget = self.config.train.max_minutes
+        out_of_time = budget > 0 and self.state.wall_s >= 60 * budget
+        return self.state.frames >= self.config.train.frames or out_of_time
+
     def collect_and_update(self, collector, start: float) -> None:
         """Batches from ``collector`` and an update on each. Only a failure of the
         collection is a :class:`CollectionError`; a learner or checkpoint error is a bug
         and ends the run."""
         batches, synced = iter(collector), True  # run() synced before the first batch
-        while self.state.frames < self.config.train.frames:
+        while not self.finished():
             batch = collect(batches, None if synced else collector.update_policy_weights_)
             self.iteration(as_workers_by_time(batch, self.config.collector.workers), start)
             synced = False

@@ -262,3 +262,11 @@ def test_value_targets_bootstrap_at_a_truncation_and_not_at_a_termination(end):
     reward = last["next", "reward"]
     expected = reward + 0.9 * next_value if end == "truncated" else reward
     torch.testing.assert_close(targets, expected, rtol=1e-5, atol=1e-6)
+
+
+def test_a_wall_clock_budget_ends_the_run_after_the_update_that_crosses_it(tmp_path):
+    state = train(config_for("train.frames=1000", "train.max_minutes=0.0001"), tmp_path / "run")
+    assert state.updates == 1 and state.frames == 5 and state.wall_s >= 0.006
+    assert (tmp_path / "run" / "checkpoints" / "last.pt").is_file()
+    with pytest.raises(ValueError, match="train.max_minutes must be >= 0"):
+        config_for("train.max_minutes=-1")
