@@ -18,7 +18,8 @@ Writes into ``--out`` (default ``benchmarks/results/buildings``): ``contact_shee
 sub-folder per building, each with ``trials.jsonl``) and checks the paper's ordering per
 building, at the travel every policy reached (the shortest final travel of the three):
 nearest frontier explored the most (fastest coverage), nearest has the highest map error,
-EM the lowest. Writes ``ordering.md`` and ``ordering.json`` into DIR. ``--smoke`` also
+EM the lowest; and, since a policy that covers little can keep its error low (random),
+the map error at equal coverage (the least any policy explored, once each reached it). Writes ``ordering.md`` and ``ordering.json`` into DIR. ``--smoke`` also
 runs that check on a tiny evaluation it runs itself (one building, 3 m of travel).
 
     explore-rl-eval -m scene=building scene.seed=1000,...,1019 slam=model \
@@ -169,13 +170,37 @@ def ordering(runs: list[dict], plans: dict[int, dict]) -> dict:
         row["em_lowest_map_error"] = bool(error["em"] < min(error["nearest"], error["random"]))
         row["paper_ordering"] = row["nearest_fastest_coverage"] and row["nearest_worst_map_error"] \
             and row["em_lowest_map_error"]
+        row["em_lower_map_error_than_nearest"] = bool(error["em"] < error["nearest"])
+        # at equal coverage (the least any policy reached): the travel each needed, its error then
+        row["coverage"] = min(run["explored"] for run in good.values())
+        for policy, run in good.items():
+            reached = travel_to_reach(run, row["coverage"])
+            row[f"travel_to_coverage_{policy}"] = reached
+            row[f"map_error_at_coverage_{policy}"] = comparison.value_at_travel(run, "map_error_m", reached)
+        at_coverage = {p: row[f"map_error_at_coverage_{p}"] for p in ("em", "nearest", "random")}
+        row["em_lowest_map_error_at_equal_coverage"] = bool(
+            at_coverage["em"] < min(at_coverage["nearest"], at_coverage["random"]))
         rows.append(row)
-    flags = ("nearest_fastest_coverage", "nearest_worst_map_error", "em_lowest_map_error", "paper_ordering")
+    flags = ("nearest_fastest_coverage", "nearest_worst_map_error", "em_lowest_map_error", "paper_ordering",
+             "em_lower_map_error_than_nearest", "em_lowest_map_error_at_equal_coverage")
     counts = {flag: sum(row[flag] for row in rows) for flag in flags}
     by_loops = {kind: {flag: sum(row[flag] for row in rows if (row["loops"] > 0) == (kind == "loops"))
                        for flag in flags} | {"buildings": sum((row["loops"] > 0) == (kind == "loops") for row in rows)}
                 for kind in ("loops", "tree")}
     return {"buildings": len(rows), "counts": counts, "by_loops": by_loops, "rows": rows}
+
+
+def travel_to_reach(run: dict, coverage: float) -> float:
+    """Travel (m) at which ``run`` first explored ``coverage``, interpolated between decisions."""
+    travel = np.array([0.0] + [row["travel_m"] for row in run["rows"]])
+    explored = np.maximum.accumulate(np.array([0.0] + [row["explored"] for row in run["rows"]]))
+    index = int(np.searchsorted(explored, coverage - 1e-12))
+    if index >= len(explored):
+        return float(travel[-1])
+    if index == 0 or explored[index] == explored[index - 1]:
+        return float(travel[index])
+    share = (coverage - explored[index - 1]) / (explored[index] - explored[index - 1])
+    return float(travel[index - 1] + share * (travel[index] - travel[index - 1]))
 
 
 def ordering_markdown(result: dict) -> str:
@@ -184,12 +209,16 @@ def ordering_markdown(result: dict) -> str:
              f"* nearest frontier fastest coverage: **{counts['nearest_fastest_coverage']} / {n}**",
              f"* nearest frontier worst map error: **{counts['nearest_worst_map_error']} / {n}**",
              f"* EM lowest map error: **{counts['em_lowest_map_error']} / {n}**",
-             f"* all three: **{counts['paper_ordering']} / {n}**", ""]
+             f"* all three: **{counts['paper_ordering']} / {n}**",
+             f"* EM lower map error than nearest frontier: **{counts['em_lower_map_error_than_nearest']} / {n}**",
+             f"* EM lowest map error at equal coverage (the least any policy explored; error once each "
+             f"reached it): **{counts['em_lowest_map_error_at_equal_coverage']} / {n}**", ""]
     for kind, c in result["by_loops"].items():
         lines.append(f"* {kind} plans ({c['buildings']}): nearest fastest {c['nearest_fastest_coverage']}, "
                      f"nearest worst error {c['nearest_worst_map_error']}, EM lowest error {c['em_lowest_map_error']}")
     lines += ["", "| building | corridor | loops | travel m | explored em / nearest / random | "
-              "map error em / nearest / random | ordering |", "|---|---|---|---|---|---|---|"]
+              "map error em / nearest / random | ordering | at coverage % | travel m em / nearest / random | "
+              "map error em / nearest / random |", "|---|---|---|---|---|---|---|---|---|---|"]
     for row in result["rows"]:
         explored = " / ".join(f"{100 * row[f'explored_{p}']:.0f}" for p in ("em", "nearest", "random"))
         error = " / ".join(f"{row[f'map_error_{p}']:.3f}" for p in ("em", "nearest", "random"))
@@ -197,8 +226,10 @@ def ordering_markdown(result: dict) -> str:
             f for f, ok in (("NF not fastest", row["nearest_fastest_coverage"]),
                             ("NF not worst", row["nearest_worst_map_error"]),
                             ("EM not lowest", row["em_lowest_map_error"])) if not ok)
+        travel = " / ".join(f"{row[f'travel_to_coverage_{p}']:.0f}" for p in ("em", "nearest", "random"))
+        at_coverage = " / ".join(f"{row[f'map_error_at_coverage_{p}']:.3f}" for p in ("em", "nearest", "random"))
         lines.append(f"| {row['seed']} | {row['corridor']} | {row['loops']} | {row['travel_m']:.0f} | {explored} | "
-                     f"{error} | {mark} |")
+                     f"{error} | {mark} | {100 * row['coverage']:.0f} | {travel} | {at_coverage} |")
     return "\n".join(lines) + "\n"
 
 
