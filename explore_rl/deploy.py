@@ -41,6 +41,7 @@ import torch
 
 from explore_rl.graph.encode import EncodedGraph, encode
 from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph
+from explore_rl.graph.features import FRONTIER_EXTRAS
 from explore_rl.models.actor_file import ActorFile, check_output_file, export_actor_file, load_actor
 from explore_rl.models.export import ExportedActor, export_actor
 from explore_rl.trainer.checkpoint import CheckpointError
@@ -87,9 +88,11 @@ class DeployedPolicy:
 
     def graph(self, pose_xy, pose_edges, frontier_xy, frontier_revisits: Sequence[Sequence[int]], *,
               pose_cov=None, pose_uncertainty=None, frontier_cov=None, frontier_uncertainty=None,
-              nearest: int = 0, current: int | None = None) -> ExplorationGraph:
+              nearest: int = 0, current: int | None = None, frontier_extra=None) -> ExplorationGraph:
         """The exploration graph of the arrays (frontier node ``j`` refers to the caller's
-        frontier ``graph.candidate[node]``; the nearest comes first)."""
+        frontier ``graph.candidate[node]``; the nearest comes first). ``frontier_extra (F, 6)``:
+        the extended columns (explore_rl/graph/features.py ``FRONTIER_EXTRAS``), needed by a
+        policy trained with ``graph.features=extended`` and refused by one trained without."""
         pose_xy = np.asarray(pose_xy, float).reshape(-1, 2)
         frontier_xy = np.asarray(frontier_xy, float).reshape(-1, 2)
         n_poses, n_frontiers = len(pose_xy), len(frontier_xy)
@@ -107,9 +110,26 @@ class DeployedPolicy:
         if len(edges) and (edges.min() < 0 or edges.max() >= n_poses):
             raise ValueError(f"pose_edges must index keyframes 0..{n_poses - 1}")
         order = [nearest] + [f for f in range(n_frontiers) if f != nearest]
+        extra = self.frontier_extra(frontier_extra, n_frontiers)
         return build_graph(pose_xy, pose_u, edges, frontier_xy[order], frontier_u[order],
                            [list(frontier_revisits[f]) for f in order], current=current,
-                           frontier_candidates=order)
+                           frontier_candidates=order, frontier_extra=None if extra is None else extra[order])
+
+    def frontier_extra(self, extra, n_frontiers: int) -> np.ndarray | None:
+        """``frontier_extra`` checked against what the policy reads."""
+        wants = self.actor_file is not None and self.actor_file.feature_set == "extended"
+        if extra is None:
+            if wants:
+                raise ValueError(f"this policy reads graph.features=extended: pass frontier_extra=(F, "
+                                 f"{len(FRONTIER_EXTRAS)}) with columns {', '.join(FRONTIER_EXTRAS)}")
+            return None
+        if self.actor_file is not None and not wants:
+            raise ValueError("this policy reads the paper's 4 node features: do not pass frontier_extra")
+        extra = np.asarray(extra, float)
+        if extra.shape != (n_frontiers, len(FRONTIER_EXTRAS)) or not np.isfinite(extra).all():
+            raise ValueError(f"frontier_extra must be finite, shape ({n_frontiers}, {len(FRONTIER_EXTRAS)}), "
+                             f"got {extra.shape}")
+        return extra
 
     def decide(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> Decision:
         """The most probable frontier (greedy) and the policy's distribution."""
