@@ -27,18 +27,20 @@ import os
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Sequence
 
 import numpy as np
+
+from explore_rl.run_config import POLICIES as POLICIES  # the configs live there
+from explore_rl.run_config import EvaluateConfig as EvaluateConfig
 
 if TYPE_CHECKING:
     from explore_rl.config import Config
 
 log = logging.getLogger(__name__)
 
-POLICIES = ("learned", "em", "nearest", "random")
 COLOURS = {"learned": "tab:green", "em": "tab:red", "nearest": "tab:blue", "random": "tab:gray"}
 # final figures of a trial summarised per (scene, policy): key, column title, scale, format
 SUMMARY_COLUMNS = (
@@ -54,25 +56,6 @@ SUMMARY_COLUMNS = (
     ("min_clearance_m", "min clearance m", 1.0, "{:.3f}"),
 )
 EXTRA_KEYS = ("ate_m", "decisions", "safety_interventions")
-
-
-@dataclass
-class EvaluateConfig:
-    """The ``evaluate`` config group (``explore-rl-eval``)."""
-
-    policies: list[str] = field(default_factory=lambda: list(POLICIES))
-    trials: int = 10
-    workers: int = 2  # worker processes (spawned); 1 runs the trials in this process
-    threads: int = 1  # torch / BLAS threads per worker
-    progress_bar: bool = True
-
-    def validate(self) -> None:
-        unknown = [p for p in self.policies if p not in POLICIES]
-        if unknown or not self.policies:
-            raise ValueError(f"evaluate.policies={list(self.policies)}: choose from {', '.join(POLICIES)}")
-        for key in ("trials", "workers", "threads"):
-            if getattr(self, key) < 1:
-                raise ValueError(f"evaluate.{key} must be >= 1, got {getattr(self, key)}")
 
 
 # ---------------------------------------------------------------------- trials

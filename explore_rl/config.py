@@ -14,20 +14,17 @@ from typing import Optional, Sequence
 from hydra.core.config_store import ConfigStore
 
 from explore_rl import checks
-from explore_rl.comparison import POLICIES, EvaluateConfig
 from explore_rl.envs.config import EnvConfig
 from explore_rl.graph.config import GraphConfig
 from explore_rl.mapping.config import MAP_UPDATES, MappingConfig
 from explore_rl.models.config import ModelConfig
-from explore_rl.planning.config import PlanningConfig
-from explore_rl.planning.policies import PolicyConfig
+from explore_rl.planning.config import PlanningConfig, PolicyConfig
 from explore_rl.resources import conf_dir
-from explore_rl.robot import RobotConfig
-from explore_rl.runner import ExploreConfig
+from explore_rl.robot_config import RobotConfig
+from explore_rl.run_config import POLICIES, EvaluateConfig, ExploreConfig, TourConfig
 from explore_rl.scene.config import SceneConfig, validate_building
-from explore_rl.sensors.lidar import LidarConfig
+from explore_rl.sensors.config import LidarConfig
 from explore_rl.slam.config import SlamConfig
-from explore_rl.tour import TourConfig
 from explore_rl.trainer.config import (
     BACKENDS,
     ESTIMATORS,

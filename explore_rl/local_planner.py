@@ -40,56 +40,14 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from explore_rl.geometry import wrap_angle
+from explore_rl.robot_config import SafetyConfig as SafetyConfig  # the config lives there
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class SafetyConfig:
-    """The local safety layer (``robot.safety``, conf/robot/jackal.yaml)."""
-
-    enabled: bool = True
-    # hard: the commanded footprint sweep keeps this gap (m) to every scanned obstacle point
-    # (several motion-noise sigmas: one step moves the true pose ~1 cm off the command)
-    margin: float = 0.04
-    # soft: below this gap a direction is penalised by comfort_weight rad per metre
-    comfort: float = 0.12
-    comfort_weight: float = 5.0
-    # rad of cost per rad of in-place turn a direction needs (keeps the robot from dithering)
-    turn_weight: float = 0.3
-    # length (m) of the sweep a direction must keep clear (capped at the waypoint's distance)
-    lookahead: float = 0.4
-    # candidate directions, evenly spaced over the full circle (plus the exact bearing)
-    headings: int = 72
-    # once the layer has changed a step towards a waypoint: steps without getting `progress`
-    # (m) closer to it than before, after which the layer gives up on the waypoint
-    patience: int = 15
-    progress: float = 0.05
-    # a waypoint the layer gives up on this close (m) counts as reached; so does one this
-    # close that the direct way to is not clear. Intermediate waypoints of a path (corners)
-    # get the larger tolerance: the path goes on from them anyway
-    reach_tolerance: float = 0.5
-    corner_tolerance: float = 0.6
-    # directions deviating more than this (deg) from the waypoint's bearing are not taken
-    # (except to step out of the margin): no driving away from the goal
-    max_deviation_deg: float = 80.0
-    # the ring: channels from min to max elevation, azimuth step, range (m)
-    channels: int = 2
-    min_elevation_deg: float = -15.0
-    max_elevation_deg: float = 0.0
-    azimuth_resolution_deg: float = 2.0
-    max_range: float = 1.5
-    # scan points below this height (m, above the floor) are floor, not obstacles
-    floor_height: float = 0.05
-    # cast a fresh ring every this many motion steps (in between, the last ring is moved by
-    # the odometry)
-    scan_every: int = 1
 
 
 class ObstacleRing:
@@ -305,29 +263,11 @@ class LocalPlanner:
         return "blocked"
 
 
-def validate(safety: SafetyConfig) -> None:
-    """Raise with the key and the fix for values the layer cannot work with."""
-    checks = {
-        "margin": safety.margin >= 0, "comfort": safety.comfort >= 0, "comfort_weight": safety.comfort_weight >= 0,
-        "turn_weight": safety.turn_weight >= 0, "lookahead": safety.lookahead > 0, "headings": safety.headings >= 8,
-        "patience": safety.patience >= 1, "progress": safety.progress >= 0,
-        "reach_tolerance": safety.reach_tolerance >= 0, "corner_tolerance": safety.corner_tolerance >= 0,
-        "max_deviation_deg": 0 < safety.max_deviation_deg <= 180, "channels": safety.channels >= 1,
-        "azimuth_resolution_deg": safety.azimuth_resolution_deg > 0, "max_range": safety.max_range > 0,
-        "scan_every": safety.scan_every >= 1,
-    }
-    bad = [key for key, ok in checks.items() if not ok]
-    if bad:
-        values = ", ".join(f"robot.safety.{key}={getattr(safety, key)}" for key in bad)
-        raise ValueError(f"{values}: margins, weights, tolerances >= 0; lookahead, ranges, azimuth step > 0; "
-                         f"headings >= 8; patience, channels, scan_every >= 1; max_deviation_deg in (0, 180]")
-
-
 def make_local_planner(safety: SafetyConfig, robot_config, scene, lidar_config,
                        rng: np.random.Generator) -> LocalPlanner | None:
     """The layer for a robot in ``scene`` (None when ``safety.enabled`` is false)."""
     if not safety.enabled:
         return None
-    validate(safety)
+    safety.validate()
     ring = ObstacleRing(make_ring_lidar(scene, safety, lidar_config, rng), safety.floor_height)
     return LocalPlanner(safety, robot_config, ring)

@@ -29,81 +29,17 @@ and translates until the clearance reaches :attr:`EscapeConfig.clearance`.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, Iterator
 
 import numpy as np
 
-from explore_rl import checks
 from explore_rl.geometry import se2_compose, wrap_angle
-from explore_rl.local_planner import SafetyConfig
-from explore_rl.local_planner import validate as validate_safety
+from explore_rl.robot_config import EscapeConfig as EscapeConfig  # the configs live there
+from explore_rl.robot_config import RobotConfig as RobotConfig
 
 log = logging.getLogger(__name__)
-
-MIN_STEP_DISTANCE = 1e-3  # m: the smallest robot.step_distance validate() accepts
-MIN_STEP_ANGLE_DEG = 0.1  # deg: the smallest robot.step_angle_deg
-
-
-@dataclass
-class RobotConfig:
-    """Jackal-sized UGV; every number of the motion model."""
-
-    radius: float = 0.3
-    body_size: list[float] = field(default_factory=lambda: [0.508, 0.430, 0.25])
-    speed: float = 0.5
-    turn_rate_deg: float = 45.0
-    step_distance: float = 0.2
-    step_angle_deg: float = 10.0
-    noise_xy: float = 0.01
-    noise_yaw_deg: float = 0.08
-    # turn in place first when the heading error to the next waypoint exceeds this
-    heading_tolerance_deg: float = 10.0
-    waypoint_tolerance: float = 0.05
-    # Step cap of one path (Robot.follow): a path that has not ended after path_step_factor
-    # times the motion steps it needs (its length / step_distance plus a half turn per
-    # waypoint / step_angle_deg) plus path_step_slack steps ends blocked, and the log says why
-    # -- whatever the settings or the situation, following a path cannot loop forever.
-    path_step_factor: float = 10.0
-    path_step_slack: int = 100
-    # the local safety layer on the live scan (explore_rl/local_planner.py); enabled=false: off
-    safety: SafetyConfig = field(default_factory=SafetyConfig)
-
-    def validate(self) -> None:
-        """Values path following can work with (a zero tolerance or turn step never ends a
-        waypoint; a negative or NaN noise breaks the motion model); one line per bad key."""
-        for key in ("radius", "speed", "turn_rate_deg", "waypoint_tolerance", "path_step_factor"):
-            checks.positive(f"robot.{key}", getattr(self, key))
-        # motion steps of at least 1 mm / 0.1 deg: smaller ones make a path take millions of steps
-        checks.in_range("robot.step_distance", self.step_distance, MIN_STEP_DISTANCE, 10.0)
-        checks.in_range("robot.step_angle_deg", self.step_angle_deg, MIN_STEP_ANGLE_DEG, 180.0)
-        checks.in_range("robot.heading_tolerance_deg", self.heading_tolerance_deg, 0.0, 180.0, low_open=True)
-        for key in ("noise_xy", "noise_yaw_deg"):
-            checks.non_negative(f"robot.{key}", getattr(self, key))
-        checks.at_least("robot.path_step_slack", self.path_step_slack, 0)
-        if len(self.body_size) != 3:
-            raise ValueError(f"robot.body_size must be three positive sizes [x, y, z] (m), got {self.body_size}")
-        for i, size in enumerate(self.body_size):
-            checks.positive(f"robot.body_size[{i}]", size)
-        if self.safety.enabled:
-            validate_safety(self.safety)
-
-
-@dataclass
-class EscapeConfig:
-    """How a robot touching an obstacle backs off (``Robot.escape``; config ``explore.escape``)."""
-
-    # footprint clearance (m, beyond the robot radius) the robot backs off to; a robot with
-    # at least this much is left alone. Several motion-noise sigmas, so turns are safe again.
-    clearance: float = 0.1
-    # escape headings tried, evenly spaced from the current heading (even: straight ahead
-    # and straight back are among them, so a plain back-off needs no turn)
-    directions: int = 36
-    # motion steps one escape may use: turns, translations and noisy steps that would have
-    # collided (not taken, retried with fresh noise)
-    max_steps: int = 40
-
 
 class PathStatus(str, Enum):
     REACHED = "reached"

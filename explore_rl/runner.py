@@ -26,32 +26,14 @@ from explore_rl.local_planner import make_local_planner
 from explore_rl.mapping.frontiers import Frontier, find_frontiers
 from explore_rl.mapping.paths import PathPlanner, path_length, simplify_path, traversability
 from explore_rl.planning.policies import Policy, make_policy
-from explore_rl.robot import EscapeConfig, PathStatus, Robot
+from explore_rl.robot import PathStatus, Robot
+from explore_rl.run_config import ExploreConfig as ExploreConfig  # the config lives there
 from explore_rl.scene.build import Scene, make_scene
 from explore_rl.sensors.lidar import Lidar
 from explore_rl.slam.session import SlamSession
 from explore_rl.state import Candidate, ExplorationState
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class ExploreConfig:
-    """The ``explore`` config group: when a run ends and what it writes."""
-
-    target_explored: float = 0.85
-    travel_budget: float = 400.0
-    max_decisions: int = 300
-    # a frontier whose path was blocked before the robot moved this far is skipped from then on
-    blocked_progress: float = 0.05
-    # frontiers whose waypoint lies this close to an already visited waypoint are skipped
-    # (frontier cells that stay unknown after a visit, e.g. noisy wall cells)
-    visited_radius: float = 0.5
-    # backing off when the robot starts a decision touching an obstacle (explore_rl/robot.py)
-    escape: EscapeConfig = field(default_factory=EscapeConfig)
-    progress_bar: bool = True
-    animation: bool = False
-    out_dir: str = "out/explore"
 
 
 class Status(str, Enum):

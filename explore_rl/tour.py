@@ -6,38 +6,16 @@ that visits the rooms and comes back near its start, before any exploration poli
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from explore_rl import checks
 from explore_rl.mapping.config import PathConfig
 from explore_rl.mapping.paths import PathPlanner, simplify_path, traversability
 from explore_rl.robot import PathStatus, Robot
+from explore_rl.run_config import TourConfig as TourConfig  # the config lives there
 from explore_rl.scene.build import Scene
 from explore_rl.slam.session import SlamSession
-
-
-@dataclass
-class TourConfig:
-    start_index: int = 1
-    goals: list[list[float]] = field(default_factory=list)
-    # extra clearance (m) of tour paths from obstacles: the robot steers by its estimate
-    inflation_margin: float = 0.1
-    # The tour's own path costs (see mapping.paths): kept at the values the benchmarks'
-    # tours (bench_slam, bench_frontends, the calibrations) were recorded with, so the
-    # tours stay the same trajectories when the exploration defaults change.
-    clearance_weight: float = 1.0
-    clearance_scale: float = 0.3
-
-    def validate(self) -> None:
-        """Tour settings that can be planned; one line naming the key and the allowed range."""
-        checks.at_least("tour.start_index", self.start_index, 0)
-        for i, goal in enumerate(self.goals):
-            checks.finite_pair(f"tour.goals[{i}]", goal, positive_entries=False)
-        checks.non_negative("tour.inflation_margin", self.inflation_margin)
-        checks.non_negative("tour.clearance_weight", self.clearance_weight)
-        checks.positive("tour.clearance_scale", self.clearance_scale)
 
 
 def tour_paths(config) -> PathConfig:

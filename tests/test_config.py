@@ -2,6 +2,8 @@
 value of issue 20 item 4 fails before anything runs, in one line naming the key and the
 allowed range; the shipped conf/ files repeat the dataclass defaults."""
 
+import subprocess
+import sys
 from dataclasses import asdict
 from pathlib import Path
 
@@ -90,3 +92,20 @@ def test_tour_config_defaults_validate():
     TourConfig().validate()
     with pytest.raises(ValueError, match="tour.clearance_scale must be positive"):
         TourConfig(clearance_scale=0).validate()
+
+
+def test_importing_the_config_loads_no_runtime_code():
+    """A fresh process: ``import explore_rl.config`` pulls in none of the simulator, SLAM,
+    scipy or torch, and only config modules of the package (no import circle through
+    runtime modules)."""
+    code = ("import sys, explore_rl.config\n"
+            "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('mujoco', 'gtsam', 'kiss_icp', 'scipy', 'torch', 'torchrl'))))\n"
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('explore_rl'))))\n")
+    heavy, ours = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                 check=True).stdout.split("\n")[:2]
+    assert heavy == ""
+    runtime = [m for m in ours.split() if m.rsplit(".", 1)[-1] not in (
+        "explore_rl", "config", "checks", "resources", "robot_config", "run_config",
+        "envs", "graph", "mapping", "models", "planning", "scene", "sensors", "slam", "trainer")]
+    assert runtime == [], runtime

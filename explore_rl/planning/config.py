@@ -7,6 +7,7 @@ defaults); keep every field a plain type.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 
 @dataclass
@@ -101,3 +102,16 @@ class PlanningConfig:
     revisits: RevisitConfig = field(default_factory=RevisitConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
     em: EMConfig = field(default_factory=EMConfig)
+
+
+@dataclass
+class PolicyConfig:
+    """The ``policy`` config group. ``name``: nearest, random, em or learned.
+
+    EM evaluates the decision's action set, ``planning.actions`` (one set for the
+    exploration graph, EM and the reward). ``learned`` reads its actor from ``checkpoint``:
+    an actor file (``explore-rl-export``) or a training checkpoint; the default is the
+    shipped policy (explore_rl/planning/learned.py)."""
+
+    name: str = "nearest"
+    checkpoint: Optional[str] = "policies/office_a2c/actor.pt"

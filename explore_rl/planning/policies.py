@@ -6,26 +6,14 @@ policy implement the same :class:`Policy` protocol.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Optional, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from explore_rl.planning.config import PolicyConfig as PolicyConfig  # the config lives there
+
 if TYPE_CHECKING:
     from explore_rl.state import ExplorationState
-
-
-@dataclass
-class PolicyConfig:
-    """The ``policy`` config group. ``name``: nearest, random, em or learned.
-
-    EM evaluates the decision's action set, ``planning.actions`` (one set for the
-    exploration graph, EM and the reward). ``learned`` reads its actor from ``checkpoint``:
-    an actor file (``explore-rl-export``) or a training checkpoint; the default is the
-    shipped policy (explore_rl/planning/learned.py)."""
-
-    name: str = "nearest"
-    checkpoint: Optional[str] = "policies/office_a2c/actor.pt"
 
 
 class Policy(Protocol):
