@@ -187,6 +187,7 @@ def validate_mapping(config: Config) -> None:
     checks.at_least("mapping.occupancy.azimuth_bins", mapping.occupancy.azimuth_bins, 1)
     checks.positive("mapping.occupancy.ray_step_cells", mapping.occupancy.ray_step_cells)
     checks.positive("mapping.voxels.voxel_size", mapping.voxels.voxel_size)
+    checks.non_negative("mapping.voxels.reproject_shift", mapping.voxels.reproject_shift)
     checks.one_of("mapping.frontiers.neighbourhood", mapping.frontiers.neighbourhood, (4, 8))
     checks.at_least("mapping.frontiers.min_cluster_cells", mapping.frontiers.min_cluster_cells, 1)
     checks.positive("mapping.frontiers.max_cluster_extent", mapping.frontiers.max_cluster_extent)

@@ -6,11 +6,12 @@ a sequential scan-matching factor from the front end (seeded with the wheel-odom
 delta), an odometry factor, one iSAM2 update, then the 2D occupancy grid and the 3D
 voxel map at the *estimated* poses. When loop closures move estimates by more than a
 cell the maps follow: with ``mapping.updates=incremental`` only the keyframes that moved
-so far are re-projected (their voxel counts taken out and put back, their 2D beams traced
-again, the kept beam cells of all keyframes replayed: the grid clamps after each scan, so
-a scan cannot be subtracted); with ``rebuild`` (the reference) every keyframe is
-re-projected whenever any moved. Both give the maps :func:`reference_maps` builds from
-scratch at :attr:`SlamSession.map_poses`. Metrics follow DESIGN.md: map error, ATE, 3D
+that far are traced again in 2D (the kept beam cells of all keyframes are then replayed:
+the grid clamps after each scan, so a scan cannot be subtracted), and the 3D clouds of
+those more than ``mapping.voxels.reproject_shift`` off are taken out of the voxel counts
+and put back; with ``rebuild`` (the reference) every keyframe is re-projected whenever
+any moved. Both give the maps :func:`reference_maps` builds from scratch at the poses
+each map was built at. Metrics follow DESIGN.md: map error, ATE, 3D
 volume, explored %, degenerate scans.
 
 Poses in the graph are the robot base at z = 0; the sensor sits ``mount_height`` above it.
@@ -31,7 +32,7 @@ from kiss_icp.voxelization import voxel_down_sample
 
 from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix, transform_points
 from explore_rl.mapping.config import MappingConfig
-from explore_rl.mapping.occupancy import OccupancyGrid, Scan2D, collapse_scan, explored_fraction
+from explore_rl.mapping.occupancy import OccupancyGrid, Scan2D, collapse_scan, explored_fraction, moved_poses
 from explore_rl.mapping.voxels import VoxelCounts, VoxelMap
 from explore_rl.robot import MotionStep
 from explore_rl.scene.build import Scene
@@ -148,13 +149,13 @@ def map_error(world_from_sensor_est: np.ndarray, world_from_sensor_true: np.ndar
 
 def reference_maps(session: "SlamSession") -> tuple[OccupancyGrid, VoxelMap]:
     """Both maps built from scratch by the reference code (:meth:`OccupancyGrid.rebuild`,
-    :meth:`VoxelMap.rebuild`) at the session's map poses: what either update mode must
-    equal (tests, ``benchmarks/bench_drive.py``)."""
-    poses = session.map_poses
+    :meth:`VoxelMap.rebuild`) at the session's map poses (:attr:`SlamSession.map_poses`,
+    :attr:`SlamSession.voxel_poses`): what either update mode must equal (tests,
+    ``benchmarks/bench_drive.py``)."""
     occupancy = OccupancyGrid(session.scene.grid, session.mapping.occupancy)
-    occupancy.rebuild([k.scan2d for k in session.keyframes], poses)
+    occupancy.rebuild([k.scan2d for k in session.keyframes], session.map_poses)
     voxels = VoxelMap(session.mapping.voxels)
-    voxels.rebuild([k.cloud for k in session.keyframes], list(session.world_from_sensor(poses)))
+    voxels.rebuild([k.cloud for k in session.keyframes], list(session.world_from_sensor(session.voxel_poses)))
     return occupancy, voxels
 
 
@@ -183,6 +184,7 @@ class SlamSession:
         self.keyframes: list[Keyframe] = []
         self.timer = StageTimer()
         self._map_poses = np.zeros((0, 3))
+        self._voxel_poses = np.zeros((0, 3))  # incremental: the 3D map's own (see correct_maps)
         self._steps_since_keyframe = 0
         self._take_keyframe(np.asarray(start_pose, float), np.asarray(start_pose, float), 0.0)
 
@@ -254,19 +256,24 @@ class SlamSession:
             keyframe = self.keyframes[-1]
             self._cells.append(self._trace(keyframe, estimates[-1]))
             self.occupancy.integrate_cells(*self._cells[-1])
+            self._voxel_poses = np.vstack([self._voxel_poses, estimates[-1:]])
         self.voxels.insert(self._cloud_world(keyframe, estimates[-1]))
         self._map_poses = np.vstack([self._map_poses, estimates[-1:]])
 
     def correct_maps(self, moved: np.ndarray, estimates: np.ndarray) -> None:
-        """Re-project keyframes ``moved`` at ``estimates`` (``mapping.updates=incremental``)."""
+        """Re-project the 2D scans of keyframes ``moved`` at ``estimates``, and the 3D clouds
+        of every keyframe more than ``mapping.voxels.reproject_shift`` off its estimate
+        (``mapping.updates=incremental``)."""
         with self.timer("map_corrections"):
             for i in moved:
-                keyframe = self.keyframes[i]
-                self.voxels.remove(self._cloud_world(keyframe, self._map_poses[i]))
-                self.voxels.insert(self._cloud_world(keyframe, estimates[i]))
-                self._cells[i] = self._trace(keyframe, estimates[i])
+                self._cells[i] = self._trace(self.keyframes[i], estimates[i])
                 self._map_poses[i] = estimates[i]
             self.occupancy.replay(self._cells)
+            shift = self.mapping.voxels.reproject_shift
+            for i in moved_poses(self._voxel_poses, estimates, shift, self.mapping.occupancy.max_range):
+                self.voxels.remove(self._cloud_world(self.keyframes[i], self._voxel_poses[i]))
+                self.voxels.insert(self._cloud_world(self.keyframes[i], estimates[i]))
+                self._voxel_poses[i] = estimates[i]
 
     def _trace(self, keyframe: Keyframe, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A keyframe's 2D beam cells at a planar pose, kept as int32 (half the memory)."""
@@ -278,9 +285,14 @@ class SlamSession:
 
     @property
     def map_poses(self) -> np.ndarray:
-        """``(N, 3)`` planar estimates the maps were last built at: each within a map cell
+        """``(N, 3)`` planar estimates the 2D map was last built at: each within a map cell
         of its current estimate (a keyframe is re-projected when it moves further)."""
         return self._map_poses
+
+    @property
+    def voxel_poses(self) -> np.ndarray:
+        """``(N, 3)`` planar estimates the 3D voxel map was last built at."""
+        return self._voxel_poses if self.incremental else self._map_poses
 
     def rebuild_maps(self, estimates: np.ndarray | None = None) -> None:
         """Re-project every keyframe at ``estimates`` (default: the current ones)."""
@@ -292,6 +304,7 @@ class SlamSession:
             self.occupancy.rebuild([k.scan2d for k in self.keyframes], estimates)
         self.voxels.rebuild([k.cloud for k in self.keyframes], list(self.world_from_sensor(estimates)))
         self._map_poses = np.array(estimates, dtype=float).copy()
+        self._voxel_poses = self._map_poses.copy()
 
     # ------------------------------------------------------------------ metrics
 

@@ -193,3 +193,8 @@ def test_correct_maps_of_hand_moved_keyframes_equals_the_reference(session):
 def test_an_unknown_map_update_mode_fails_in_one_line_naming_the_key():
     with pytest.raises(ValueError, match=r"mapping.updates='full'.*incremental, rebuild"):
         load_config(["mapping.updates=full"])
+
+
+def test_a_negative_reproject_shift_fails_in_one_line_naming_the_key():
+    with pytest.raises(ValueError, match=r"mapping.voxels.reproject_shift"):
+        load_config(["mapping.voxels.reproject_shift=-0.1"])
