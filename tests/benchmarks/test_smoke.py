@@ -31,6 +31,7 @@ SCRIPTS = [
     ("benchmarks/bench_frontends.py", [], ["ms_slam_stage_icp", "ms_slam_stage_model", "slam_stage_ratio",
                                            "ate_m_icp", "ate_m_model", "fidelity_ok", "lidar_stage_ms"]),
     ("benchmarks/bench_lidar.py", [], ["results", "all_meet_4_mrays_per_s"]),
+    ("benchmarks/bench_import.py", [], ["s_import_config", "s_import_runtime", "speedup", "heavy_modules_config"]),
     ("benchmarks/bench_slam.py", [], ["keyframes_per_s", "ate_m", "ate_m_no_loops", "ate_m_odometry",
                                       "map_error_m", "loop_closures", "false_loop_closures", "attempts"]),
     ("benchmarks/study_buildings.py", ["--out", "{tmp}/buildings"], ["loop_fraction", "tree_fraction", "fractions",
