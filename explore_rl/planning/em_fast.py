@@ -140,9 +140,19 @@ def fast_world_covariances(graph: PoseGraph, poses: np.ndarray) -> tuple[np.ndar
 def step_tangent_covariances(graph: PoseGraph, steps: np.ndarray, ssm_cov: np.ndarray) -> np.ndarray:
     """``(P, 6, 6)`` noise of each predicted step: odometry and scan matching join the same
     poses at the same mean, so they act as one factor with the summed information."""
-    odom = {int(n): odometry_covariance(graph.config, int(n)) for n in np.unique(steps)}
-    fused = {n: np.linalg.inv(np.linalg.inv(cov) + np.linalg.inv(ssm_cov)) for n, cov in odom.items()}
-    return np.stack([fused[int(n)] for n in steps])
+    unique, index = np.unique(np.asarray(steps, dtype=int), return_inverse=True)
+    odom = np.stack([odometry_covariance(graph.config, int(n)) for n in unique])
+    if _diagonal(odom) and _diagonal(ssm_cov):  # the usual case: no 6x6 inverses
+        fused = np.zeros_like(odom)
+        diag = 1.0 / (1.0 / np.diagonal(odom, axis1=1, axis2=2) + 1.0 / np.diag(ssm_cov))
+        fused[:, np.arange(6), np.arange(6)] = diag
+    else:
+        fused = np.linalg.inv(np.linalg.inv(odom) + np.linalg.inv(ssm_cov))
+    return fused[index.ravel()]
+
+
+def _diagonal(matrices: np.ndarray) -> bool:
+    return not np.any(matrices - matrices * np.eye(matrices.shape[-1]))
 
 
 @dataclass

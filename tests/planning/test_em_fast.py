@@ -21,15 +21,17 @@ import pytest
 from explore_rl.config import load_config
 from explore_rl.geometry import se2_to_matrix
 from explore_rl.planning.config import EMConfig
-from explore_rl.planning.em import EMPlanner
+from explore_rl.planning.em import EMPlanner, ssm_covariance
 from explore_rl.planning.em_fast import (
     observed_information,
     planar_adjoint,
     planar_adjoint_inverse,
+    step_tangent_covariances,
     world_from_tangent,
 )
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.runner import Explorer
+from explore_rl.slam.pose_graph import odometry_covariance
 from tests.planning.test_em import planner, tour_state
 
 # Documented tolerance of the fast backend against the reference on real states: a
@@ -73,6 +75,17 @@ def test_observed_information_inverts_noise_plus_gain_covariance_gain():
     np.testing.assert_allclose(info[0].T, expected[..., 0, 0], rtol=1e-9)
     np.testing.assert_allclose(info[1].T, expected[..., 0, 1], rtol=1e-9)
     np.testing.assert_allclose(info[2].T, expected[..., 1, 1], rtol=1e-9)
+
+
+def test_step_noise_is_odometry_and_scan_matching_fused():
+    graph = tour_state(1.0).session.graph
+    ssm = ssm_covariance(EMConfig())
+    steps = np.array([3, 1, 3, 7])
+    expected = [np.linalg.inv(np.linalg.inv(odometry_covariance(graph.config, n)) + np.linalg.inv(ssm)) for n in steps]
+    np.testing.assert_allclose(step_tangent_covariances(graph, steps, ssm), expected, rtol=1e-12)
+    full = ssm + 1e-7  # not diagonal: the general path
+    expected = [np.linalg.inv(np.linalg.inv(odometry_covariance(graph.config, n)) + np.linalg.inv(full)) for n in steps]
+    np.testing.assert_allclose(step_tangent_covariances(graph, steps, full), expected, rtol=1e-9)
 
 
 def test_unknown_backend_fails_in_one_line():
