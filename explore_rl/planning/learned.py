@@ -34,6 +34,7 @@ from explore_rl.graph.exploration_graph import (
     factor_edges,
     graph_from_estimates,
 )
+from explore_rl.graph.features import frontier_extras
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.visibility import line_of_sight
 from explore_rl.models.actor_critic import GraphActor
@@ -63,13 +64,11 @@ def landmark_observations(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarr
     return Observations.of_pairs(vmap, poses, pose_idx[visible], landmark_idx[visible])
 
 
-def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
-                         frontier_xy: np.ndarray) -> np.ndarray:
-    """``(F, 2, 2)``: the virtual-landmark covariance of each frontier's cell after every
-    keyframe's observations -- ``vmap.frontier_landmark_covariance`` of the fully fused
-    map, computed from the frontiers' landmarks alone (the prior outside the map)."""
-    index = vmap.landmark_index(np.asarray(frontier_xy, float).reshape(-1, 2))
-    landmarks = np.unique(index[index >= 0])
+def landmark_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
+                         landmarks: np.ndarray) -> np.ndarray:
+    """``(L, 2, 2)``: the fused covariances of the virtual landmarks ``landmarks`` (unique
+    indices, ascending) after every keyframe's observations -- as in the fully fused map
+    (each landmark is fused on its own), from their observations alone."""
     prior = vmap.config.prior_std**2 * np.eye(2)  # as VirtualMap.prior_covariances
     fused = np.repeat(prior[None], len(landmarks), axis=0)
     if len(landmarks):
@@ -77,24 +76,53 @@ def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
         compact = Observations(observations.pose_idx, np.searchsorted(landmarks, observations.landmark_idx),
                                observations.gain, observations.noise)
         fused = compact.fuse(fused, pose_covs)
-    covs = np.repeat(prior[None], len(index), axis=0)
+    return fused
+
+
+def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
+                         frontier_xy: np.ndarray) -> np.ndarray:
+    """``(F, 2, 2)``: the virtual-landmark covariance of each frontier's cell after every
+    keyframe's observations -- ``vmap.frontier_landmark_covariance`` of the fully fused
+    map, computed from the frontiers' landmarks alone (the prior outside the map)."""
+    index = vmap.landmark_index(np.asarray(frontier_xy, float).reshape(-1, 2))
+    landmarks = np.unique(index[index >= 0])
+    fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
+    covs = np.repeat((vmap.config.prior_std**2 * np.eye(2))[None], len(index), axis=0)
     inside = index >= 0
     covs[inside] = fused[np.searchsorted(landmarks, index[inside])]
     return covs
 
 
+def landmarks_near(vmap: VirtualMap, points: np.ndarray, radius: float) -> np.ndarray:
+    """Indices (ascending) of the virtual landmarks within ``radius`` of any of ``points``."""
+    points = np.asarray(points, float).reshape(-1, 2)
+    near = np.zeros(vmap.num_landmarks, dtype=bool)
+    for point in points:
+        near |= np.linalg.norm(vmap.landmark_xy - point, axis=1) <= radius
+    return np.flatnonzero(near)
+
+
 def graph_features(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
-                   backend: str = "fast") -> ExplorationGraph:
+                   backend: str = "fast", features: str = "paper") -> ExplorationGraph:
     """The exploration graph of ``state`` (equal to ``graph_from_state`` with EM's decision
     context; see the module docstring for what is skipped). ``backend`` reads the pose
-    marginals as EM's (``planning.em.backend``): one factorisation or one query per pose."""
+    marginals as EM's (``planning.em.backend``): one factorisation or one query per pose.
+    ``features=extended`` also fuses the landmarks within sensor range of each frontier
+    (their mean uncertainty is a column), still a small part of the map."""
     session = state.session
     poses = session.graph.poses_se2()
     pose_covs, _ = pose_covariances(session.graph, poses, backend)
-    frontier_covs = frontier_covariances(vmap, poses, pose_covs, session.occupancy.known_occupied,
-                                         action_frontiers(state, actions))
+    blocked = session.occupancy.known_occupied
+    frontier_xy = action_frontiers(state, actions)
+    frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy)
+    extra = None
+    if features == "extended":
+        landmarks = landmarks_near(vmap, frontier_xy, vmap.config.sensor_range)
+        covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
+        extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
+                                vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(session.graph.edges))
+                                factor_edges(session.graph.edges), extra)
 
 
 def greedy_row(actor: GraphActor, encoded: EncodedGraph) -> int:
@@ -126,6 +154,9 @@ class LearnedPolicy:
             actor, self.actor_file = load_actor(config.checkpoint)
         self.actor = actor.eval()
         self.max_nodes = int((graph or GraphConfig()).max_nodes)
+        # what the actor reads: its file says so; an actor handed in reads graph.features
+        self.features = (self.actor_file.feature_set if self.actor_file is not None
+                         else (graph or GraphConfig()).features)
         self._vmap: VirtualMap | None = None
         self.last_graph: ExplorationGraph | None = None
         self.last_encoded: EncodedGraph | None = None
@@ -142,7 +173,7 @@ class LearnedPolicy:
         actions = select_actions(state, self.planning.actions, self.planning.revisits)
         after_actions = time.perf_counter()
         graph = graph_features(state, actions, self.virtual_map(state.session.occupancy.grid),
-                               self.planning.em.backend)
+                               self.planning.em.backend, self.features)
         encoded = encode(graph, self.max_nodes)
         after_graph = time.perf_counter()
         row = greedy_row(self.actor, encoded)
