@@ -45,7 +45,7 @@ from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.trainer.checkpoint import Checkpoint, check_weights, load_checkpoint, save_checkpoint
 from explore_rl.trainer.episodes import EpisodeTracker
-from explore_rl.trainer.imitation import compact_decisions, make_label_buffer
+from explore_rl.trainer.imitation import DatasetLabels, compact_decisions, make_labels
 from explore_rl.trainer.logs import RunLogger
 
 log = logging.getLogger(__name__)
@@ -89,7 +89,7 @@ class Learner:
             hyper["lmbda"] = algo.lmbda
         self.loss.make_value_estimator(ESTIMATOR_TYPES[algo.estimator], **hyper)
         self.optimizer = torch.optim.Adam(self.loss.parameters(), lr=algo.lr)
-        self.labels = make_label_buffer(algo.dagger_buffer, algo.dagger_batch)
+        self.labels = make_labels(config)  # in memory, or the dataset at train.dataset
         self.skipped_updates = 0
         self.set_training(False)
 
@@ -144,12 +144,13 @@ class Learner:
         from all kept ones. Returns the mean loss (None when replay is off); a non-finite
         step is skipped."""
         algo = self.config.algo
-        if algo.dagger_steps == 0:
+        on_disk = isinstance(self.labels, DatasetLabels)  # train.dataset: keep every labelled decision
+        if algo.dagger_steps == 0 and not on_disk:
             return None
         decisions = compact_decisions(batch)
         if decisions:
             self.labels.extend(decisions)
-        if len(self.labels) == 0:
+        if algo.dagger_steps == 0 or len(self.labels) == 0:
             return None
         losses = []
         self.set_training(True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Optional
 
 ESTIMATORS = ("gae", "td_lambda", "td0")
@@ -87,3 +88,35 @@ class TrainConfig:
     # stops after the update that crosses it (equal-wall-clock comparisons)
     max_minutes: float = 0.0
     progress_bar: bool = True
+    # folder of an on-disk dataset of EM-labelled decisions (explore_rl/trainer/dataset.py): the
+    # run appends its labelled decisions there and DAgger replays from all of it; None = in memory
+    dataset: Optional[str] = None
+    dataset_capacity: int = 200_000  # decisions a new dataset holds (sparse memory-mapped files)
+    dataset_max_edges: int = 2048  # edges per stored decision (a larger graph is skipped and logged)
+
+    def validate(self) -> None:
+        """One-line ValueError naming the key for a bad dataset setting."""
+        if self.dataset_capacity < 1 or self.dataset_max_edges < 1:
+            raise ValueError(f"train.dataset_capacity and train.dataset_max_edges must be >= 1, got "
+                             f"{self.dataset_capacity}, {self.dataset_max_edges}")
+        if self.dataset is not None:
+            if not str(self.dataset).strip():
+                raise ValueError("train.dataset is empty: give a folder (new or an existing dataset) or null")
+            check_dataset_path(self.dataset)
+
+
+DATASET_SCHEMA_FILE = "dataset.json"  # what makes a folder a dataset (explore_rl/trainer/dataset.py)
+
+
+def check_dataset_path(path: str | Path) -> Path:
+    """``path`` can hold a dataset: absent, an empty folder, or a dataset folder; ValueError
+    in one line otherwise."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"train.dataset={path}: is a file, not a dataset folder (give a new or dataset folder)")
+    if path.is_dir() and any(path.iterdir()) and not (path / DATASET_SCHEMA_FILE).is_file():
+        raise ValueError(f"train.dataset={path}: a non-empty folder with no {DATASET_SCHEMA_FILE} is no dataset "
+                         "(give a new folder or an existing dataset)")
+    if not path.exists() and path.parent.exists() and not path.parent.is_dir():
+        raise ValueError(f"train.dataset={path}: {path.parent} is a file, not a folder")
+    return path

@@ -10,19 +10,35 @@ Graphs have different sizes, and a padded ``adj[N, N]`` per decision would cost 
 megabyte, so each decision is stored trimmed to its real nodes with its edges as a list
 (``ListStorage`` holds tensordicts of any shape); :func:`pad_graphs` rebuilds a padded
 batch, as wide as the largest graph sampled, for the actor.
+
+With ``train.dataset=PATH`` the buffer is an on-disk dataset instead
+(explore_rl/trainer/dataset.py: fixed-size rows in a ``LazyMemmapStorage``): every labelled
+decision of the run is appended there, and a run can start from decisions other runs or
+collectors stored (``algo.dagger_buffer`` is then not the limit, ``train.dataset_capacity`` is).
 """
 
 from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.data import ListStorage, ReplayBuffer
 
+from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset
+
+if TYPE_CHECKING:
+    from explore_rl.config import Config
+
+METADATA = ("layout", "episode")  # per-decision keys kept when the batch has them
+
 
 def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
     """The decisions of ``batch`` (any batch shape) that have an EM label and a frontier,
     each as a small tensordict: ``x[n, F]``, ``edges[2, E]`` (i < j), ``weights[E]``,
-    ``action_mask[n]``, ``action_rewards[n]``, ``em_action``."""
+    ``action_mask[n]``, ``action_rewards[n]``, ``em_action`` (and ``layout``, ``episode``
+    when the batch has them)."""
     flat = batch.reshape(-1)
     labelled = (flat["em_action"] >= 0) & flat["action_mask"].any(-1)
     decisions = []
@@ -31,14 +47,18 @@ def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
         n = int(node_mask.sum())  # real nodes come first (explore_rl.graph.encode)
         upper = torch.triu(flat["adj"][index, :n, :n], diagonal=1)
         edges = torch.nonzero(upper).T.to(torch.int32)
-        decisions.append(TensorDict({
+        decision = TensorDict({
             "x": flat["x"][index, :n].clone(),
             "edges": edges,
             "weights": upper[edges[0].long(), edges[1].long()],
             "action_mask": flat["action_mask"][index, :n].clone(),
             "action_rewards": flat["action_rewards"][index, :n].clone(),
             "em_action": flat["em_action"][index].clone(),
-        }, batch_size=[]))
+        }, batch_size=[])
+        for key in METADATA:
+            if key in flat.keys():
+                decision[key] = flat[key][index].clone()
+        decisions.append(decision)
     return decisions
 
 
@@ -71,3 +91,41 @@ def make_label_buffer(capacity: int, batch_size: int) -> ReplayBuffer:
     (with the global torch RNG, so an exact resume samples the same minibatches)."""
     return ReplayBuffer(storage=ListStorage(max_size=capacity), batch_size=batch_size,
                         collate_fn=pad_graphs)
+
+
+class DatasetLabels:
+    """The DAgger buffer on disk (``train.dataset``): the same ``extend``/``sample``/``len``
+    as the in-memory buffer; the decisions persist in the dataset folder, so a checkpoint
+    holds only where they are (a resume reads what is on disk then)."""
+
+    def __init__(self, dataset: DecisionDataset, scene: str):
+        self.dataset, self.scene = dataset, scene
+
+    def extend(self, decisions: list[TensorDictBase]) -> None:
+        self.dataset.append(decisions, self.scene)
+
+    def sample(self) -> TensorDict:
+        return self.dataset.sample()
+
+    def __len__(self) -> int:
+        return len(self.dataset)
+
+    def state_dict(self) -> dict:
+        return {"dataset": str(Path(self.dataset.path).resolve()), "decisions": len(self.dataset)}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Nothing to restore: the decisions are on disk (possibly more than at the save)."""
+
+
+def make_labels(config: Config) -> ReplayBuffer | DatasetLabels:
+    """The DAgger buffer of ``config``: in memory (``algo.dagger_buffer`` decisions), or the
+    dataset at ``train.dataset`` (created with the run's graph shapes, or opened: its shapes
+    must match the run's)."""
+    from explore_rl.graph.features import feature_names
+
+    algo, train = config.algo, config.train
+    if train.dataset is None:
+        return make_label_buffer(algo.dagger_buffer, algo.dagger_batch)
+    schema = DatasetSchema(max_nodes=config.graph.max_nodes, max_edges=train.dataset_max_edges,
+                           features=list(feature_names(config.graph.features)), capacity=train.dataset_capacity)
+    return DatasetLabels(DecisionDataset(train.dataset, schema, batch_size=algo.dagger_batch), config.scene.name)

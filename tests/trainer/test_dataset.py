@@ -1,0 +1,136 @@
+"""The on-disk dataset of EM-scored decisions: round trip, growth, bad input, DAgger on disk."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from explore_rl.config import load_config
+from explore_rl.graph.features import feature_names
+from explore_rl.trainer.a2c import Learner
+from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset, fixed_rows, padded_batch
+from explore_rl.trainer.imitation import DatasetLabels, compact_decisions
+from tests.trainer.test_a2c import batch, config_for  # noqa: F401 -- the module's real batch fixture
+
+
+def schema_for(config, capacity: int = 100, max_edges: int = 2048) -> DatasetSchema:
+    return DatasetSchema(max_nodes=config.graph.max_nodes, max_edges=max_edges,
+                         features=list(feature_names(config.graph.features)), capacity=capacity)
+
+
+def labelled_rows(batch):  # noqa: F811
+    flat = batch.reshape(-1)
+    return flat, torch.nonzero((flat["em_action"] >= 0) & flat["action_mask"].any(-1)).flatten()
+
+
+def test_decisions_written_to_disk_give_the_actor_the_logits_of_the_original_observation(batch, tmp_path):  # noqa: F811
+    config = config_for()
+    torch.manual_seed(0)
+    learner = Learner(config)
+    flat, labelled = labelled_rows(batch)
+    assert len(labelled) > 0
+    dataset = DecisionDataset(tmp_path / "ds", schema_for(config))
+    assert dataset.append(compact_decisions(batch), scene="street") == len(labelled)
+    reopened = DecisionDataset(tmp_path / "ds")  # a fresh process would see exactly this
+    replayed = padded_batch(reopened.rows())
+    width = replayed["x"].shape[1]
+    assert width == int(flat["node_mask"][labelled].sum(-1).max())
+    with torch.no_grad():
+        original = learner.actor.get_dist(flat[labelled]).logits
+        again = learner.actor.get_dist(replayed).logits
+    mask = flat["action_mask"][labelled]
+    assert torch.equal(replayed["action_mask"], mask[:, :width]) and not mask[:, width:].any()
+    torch.testing.assert_close(again[replayed["action_mask"]], original[mask], rtol=0, atol=1e-6)
+    torch.testing.assert_close(replayed["action_rewards"], flat["action_rewards"][labelled][:, :width])
+    assert torch.equal(replayed["em_action"], flat["em_action"][labelled])
+    rows = reopened.rows()
+    assert torch.equal(rows["layout"], flat["layout"][labelled])
+    assert torch.equal(rows["episode"], flat["episode"][labelled])
+    assert reopened.schema.scenes == ["street"] and (rows["scene"] == 0).all()
+
+
+def test_a_second_writer_appends_and_a_reopened_dataset_has_every_row(batch, tmp_path):  # noqa: F811
+    config = config_for()
+    decisions = compact_decisions(batch)
+    first = DecisionDataset(tmp_path / "ds", schema_for(config))
+    first.append(decisions[:3], scene="street")
+    del first
+    second = DecisionDataset(tmp_path / "ds", schema_for(config))  # another run, same shapes
+    assert len(second) == 3
+    second.append(decisions, scene="office")
+    del second
+    reopened = DecisionDataset(tmp_path / "ds")
+    assert len(reopened) == 3 + len(decisions)
+    rows = reopened.rows()
+    expected = decisions[:3] + decisions
+    for row, decision in enumerate(expected):
+        n = decision["x"].shape[0]
+        assert int(rows["n_nodes"][row]) == n
+        assert torch.equal(rows["x"][row, :n], decision["x"])
+        assert int(rows["em_action"][row]) == int(decision["em_action"])
+    assert reopened.schema.scenes == ["street", "office"]
+    assert rows["scene"][:3].eq(0).all() and rows["scene"][3:].eq(1).all()
+
+
+def test_a_dataset_samples_padded_minibatches_the_actor_reads(batch, tmp_path):  # noqa: F811
+    config = config_for()
+    dataset = DecisionDataset(tmp_path / "ds", schema_for(config), batch_size=4)
+    dataset.append(compact_decisions(batch))
+    torch.manual_seed(3)
+    sample = dataset.sample()
+    assert sample.shape == (4,)
+    assert (sample["action_mask"] <= sample["node_mask"]).all()
+    assert torch.equal(sample["adj"], sample["adj"].transpose(1, 2))
+    Learner(config).actor.get_dist(sample)  # no error: the keys and shapes the actor reads
+
+
+def test_decisions_larger_than_the_schema_are_skipped_and_counted(batch):  # noqa: F811
+    config = config_for()
+    decisions = compact_decisions(batch)
+    edges = [d["edges"].shape[1] for d in decisions]
+    limit = sorted(edges)[len(edges) // 2]
+    rows, dropped = fixed_rows(decisions, schema_for(config, max_edges=limit))
+    assert dropped == sum(e > limit for e in edges) > 0
+    assert rows.shape[0] == len(decisions) - dropped
+
+
+def test_bad_dataset_paths_and_shapes_fail_in_one_line(batch, tmp_path):  # noqa: F811
+    config = config_for()
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("not a dataset")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "x").write_text("")
+    for path, message in ((a_file, "is a file"), (other, "no dataset.json is no dataset")):
+        with pytest.raises(ValueError, match=message) as error:
+            load_config([f"train.dataset={path}"])
+        assert "\n" not in str(error.value)
+    with pytest.raises(ValueError, match="train.dataset_capacity"):
+        load_config(["train.dataset_capacity=0"])
+    with pytest.raises(ValueError, match="no dataset there"):
+        DecisionDataset(tmp_path / "missing")
+    DecisionDataset(tmp_path / "ds", schema_for(config)).append(compact_decisions(batch))
+    wider = schema_for(load_config(["graph.features=extended"]))
+    with pytest.raises(ValueError, match="features=") as error:
+        DecisionDataset(tmp_path / "ds", wider)
+    assert "\n" not in str(error.value)
+    with pytest.raises(ValueError, match="no node feature 'path_length'"):
+        DecisionDataset(tmp_path / "ds").columns_for(feature_names("extended"))
+
+
+def test_a_run_with_train_dataset_appends_its_decisions_and_a_new_run_starts_from_them(batch, tmp_path):  # noqa: F811
+    path = tmp_path / "ds"
+    torch.manual_seed(0)
+    config = config_for(f"train.dataset={path}", "algo.distill_coef=1.0", "algo.dagger_steps=2",
+                        "algo.dagger_batch=4")
+    learner = Learner(config)
+    assert isinstance(learner.labels, DatasetLabels)
+    stats = learner.update(batch.clone())
+    count = len(compact_decisions(batch))
+    assert stats.loss_replay is not None and len(learner.labels) == count
+    # a new run (no replay steps even) opens the same dataset and grows it
+    fresh = Learner(config_for(f"train.dataset={path}", "algo.distill_coef=1.0"))
+    assert len(fresh.labels) == count
+    assert fresh.update(batch.clone()).loss_replay is None
+    assert len(DecisionDataset(path)) == 2 * count
+    assert fresh.labels.state_dict()["decisions"] == 2 * count
