@@ -288,6 +288,7 @@ def validate_training(config: Config) -> None:
         raise ValueError(f"train.max_minutes must be >= 0 (0 = no wall-clock budget), got {train.max_minutes}")
     if train.snapshot_every < 0:
         raise ValueError(f"train.snapshot_every must be >= 0 (0 = no snapshots), got {train.snapshot_every}")
+    train.validate()  # train.dataset*
     for key, value in at_least_one.items():
         if value < 1:
             raise ValueError(f"{key} must be >= 1, got {value}")
