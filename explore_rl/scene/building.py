@@ -188,14 +188,14 @@ def spine_ends(rng: np.random.Generator, nx: int, rmin: int, b: BuildingConfig) 
     return inset[0], nx - inset[1]
 
 
-def straight_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
+def straight_bands(rng: np.random.Generator, ny: int, nx: int, cw: int, rmin: int, b: BuildingConfig) -> list[Rect]:
     """One corridor across the building."""
     y0 = between(rng, rmin, ny - rmin - cw)
     xa, xe = spine_ends(rng, nx, rmin, b)
     return [(y0, y0 + cw, xa, xe)]
 
 
-def l_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
+def l_bands(rng: np.random.Generator, ny: int, nx: int, cw: int, rmin: int, b: BuildingConfig) -> list[Rect]:
     """A corridor that turns once: along x to a corner, then along y."""
     y0 = between(rng, rmin, ny - cw - 2 * rmin)
     xc = between(rng, rmin, nx - rmin - cw)
@@ -206,7 +206,7 @@ def l_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
     return [(y0, y0 + cw, xa, xc + cw), (y0 + cw, top, xc, xc + cw)]
 
 
-def loop_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
+def loop_bands(rng: np.random.Generator, ny: int, nx: int, cw: int, rmin: int, b: BuildingConfig) -> list[Rect]:
     """A ring corridor with rooms inside and outside it: two long bands, two short ones."""
     x0 = between(rng, rmin, nx - 2 * cw - 2 * rmin)
     x1 = between(rng, x0 + cw + rmin, nx - cw - rmin)
@@ -216,7 +216,7 @@ def loop_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
             (y0 + cw, y1, x0, x0 + cw), (y0 + cw, y1, x1, x1 + cw)]
 
 
-def tree_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
+def tree_bands(rng: np.random.Generator, ny: int, nx: int, cw: int, rmin: int, b: BuildingConfig) -> list[Rect]:
     """A spine with 1..max_branches perpendicular branches that end before the outer wall."""
     y0 = between(rng, rmin, ny - rmin - cw)
     if max(y0, ny - y0 - cw) < 2 * rmin:
@@ -224,6 +224,8 @@ def tree_bands(rng, ny, nx, cw, rmin, b) -> list[Rect]:
     xa, xe = spine_ends(rng, nx, rmin, b)
     bands = [(y0, y0 + cw, xa, xe)]
     sides = [s for s, depth in ((-1, y0), (1, ny - y0 - cw)) if depth >= 2 * rmin]
+    if not sides:
+        raise Redraw("no side of the spine deep enough for a branch")
     columns: list[int] = []
     for _ in range(int(rng.integers(1, b.max_branches + 1))):
         xb = int(rng.integers(xa + rmin, max(xa + rmin, xe - rmin - cw) + 1))
