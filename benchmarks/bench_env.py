@@ -78,9 +78,8 @@ def run_env(config, episodes: int, max_decisions: int, follow_em: bool, min_deci
     """Episodes of the env with random valid actions (or EM's); figures per decision and
     each decision's EM choice and Algorithm 1 rewards. Runs at least ``episodes`` episodes
     and more until ``min_decisions`` decisions."""
+    make_env(config).reset()  # warm-up (first-call costs of the process) on a throwaway env, not timed
     env = make_env(config)
-    env.reset()  # warm-up (first-call costs of the process), not timed; every run does the same
-    env.timer.seconds.clear()
     torch.manual_seed(0)
     decisions, em_actions, rewards, start = 0, [], [], time.perf_counter()
     episode = 0
