@@ -286,3 +286,22 @@ def test_explore_rl_view_draws_a_building(tmp_path):
                             cwd=tmp_path, timeout=300)
     assert result.returncode == 0, result.stderr[-2000:]
     assert out.stat().st_size > 10_000 and f"wrote {out}" in result.stdout
+
+
+@pytest.mark.parametrize("knobs", [
+    {"module": 0.25}, {"room_min_side": 3.2, "size_min": 16.0}, {"corridor_kinds": ["tree"], "corridor_weights": [1.0]},
+    {"corridor_kinds": ["loop"], "corridor_weights": [1.0], "size_max": 16.0}, {"hall_probability": 1.0},
+    {"clutter_density": 0.0, "room_loop_probability": 0.0, "corridor_kinds": ["straight", "L", "tree"],
+     "corridor_weights": [1.0, 1.0, 1.0]},
+], ids=["module", "room_min", "tree", "small_loop", "hall", "no_loops"])
+def test_other_knobs_give_valid_plans(knobs):
+    for seed in range(8):
+        plan = generate_building(config(seed, **knobs), RADIUS)
+        assert first_disconnected_start(plan.layout, layout_grid(plan.layout, 0.1), RADIUS) is None
+        stats = plan.stats()
+        if knobs.get("hall_probability") == 1.0:
+            assert stats["halls"] == 1
+        if knobs.get("room_loop_probability") == 0.0:
+            assert stats["loops"] == 0 and stats["objects"] == 0  # trees only: no ring, no extra doors
+        if knobs.get("corridor_kinds") == ["loop"]:
+            assert stats["corridor_loops"] == 1 and stats["loops"] >= 1
