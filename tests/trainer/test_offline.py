@@ -1,0 +1,79 @@
+"""Offline distillation on a dataset: the learner's own loss, lowered; actor files that load."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from explore_rl.models.actor_file import load_actor
+from explore_rl.trainer.a2c import Learner
+from explore_rl.trainer.dataset import DecisionDataset, padded_batch
+from explore_rl.trainer.imitation import compact_decisions, pad_graphs
+from explore_rl.trainer.offline import distill_loss_of, offline_config, save_offline_actor, train_offline
+from tests.trainer.test_a2c import batch, config_for  # noqa: F401 -- the module's real batch fixture
+from tests.trainer.test_dataset import schema_for
+
+
+@pytest.fixture
+def dataset(batch, tmp_path):  # noqa: F811
+    data = DecisionDataset(tmp_path / "ds", schema_for(config_for()))
+    data.append(compact_decisions(batch), scene="street")
+    return data
+
+
+def test_the_offline_loss_is_the_learners_distillation_loss(batch, dataset):  # noqa: F811
+    """Measured on the dataset it equals ``Learner.distill_loss`` on the in-memory padded
+    decisions, and minus the mean over decisions of sum_k p_k r_k computed by hand."""
+    torch.manual_seed(0)
+    learner = Learner(offline_config(config_for()))
+    everything = torch.arange(len(dataset))
+    on_disk = distill_loss_of(learner, dataset, everything, list(range(4)))
+    direct = pad_graphs(compact_decisions(batch))
+    with torch.no_grad():
+        assert on_disk == pytest.approx(learner.distill_loss(direct).item(), abs=1e-6)
+        probs = torch.softmax(learner.actor.get_dist(direct).logits, -1)
+    by_hand = -(probs * direct["action_rewards"]).sum(-1).mean().item()
+    assert on_disk == pytest.approx(by_hand, abs=1e-5)
+
+
+def test_offline_training_lowers_the_distillation_loss_on_a_fixed_dataset(dataset):
+    torch.manual_seed(0)
+    config = config_for("algo.lr=1e-2", "algo.dagger_batch=4", "model.dropout=0.0")
+    everything = torch.arange(len(dataset))
+    before_learner = Learner(offline_config(config))
+    before = distill_loss_of(before_learner, dataset, everything, list(range(4)))
+    torch.manual_seed(0)
+    learner, result = train_offline(config, dataset, steps=40)
+    after = distill_loss_of(learner, dataset, everything, list(range(4)))
+    assert result.steps == 40 and len(result.losses) == 40 and result.rows == len(dataset)
+    best = padded_batch(dataset.rows())
+    best = (best["action_rewards"] + torch.where(best["action_mask"], 0.0, -9.0)).max(-1).values.mean().item()
+    assert after < before - 0.1 * abs(before) and -after <= best + 1e-6
+
+
+def test_an_offline_actor_file_loads_and_scores_like_the_learner(dataset, tmp_path):
+    torch.manual_seed(0)
+    learner, _ = train_offline(config_for(), dataset, steps=2)
+    path = save_offline_actor(learner, tmp_path / "actor.pt", meta={"rows": len(dataset)})
+    actor, actor_file = load_actor(path)
+    assert actor_file.feature_set == "paper" and actor_file.meta["rows"] == len(dataset)
+    sample = padded_batch(dataset.rows())
+    with torch.no_grad():
+        expected = learner.actor.get_dist(sample).logits
+        logits = actor(sample["x"], sample["adj"], sample["node_mask"])
+    mask = sample["action_mask"]
+    normalised = logits.masked_fill(~mask, -torch.inf).log_softmax(-1)  # MaskedCategorical's logits
+    torch.testing.assert_close(normalised[mask], expected[mask], rtol=0, atol=1e-6)
+
+
+def test_bad_offline_inputs_fail_in_one_line(dataset, tmp_path):
+    for kwargs, message in (({"steps": 0}, "steps must be >= 1"), ({"steps": 1, "rows": 10_000}, "rows=10000"),
+                            ({"steps": 1, "rows": 0}, "rows=0")):
+        with pytest.raises(ValueError, match=message) as error:
+            train_offline(config_for(), dataset, **kwargs)
+        assert "\n" not in str(error.value)
+    empty = DecisionDataset(tmp_path / "empty", schema_for(config_for()))
+    with pytest.raises(ValueError, match="holds no decisions"):
+        train_offline(config_for(), empty, steps=1)
+    with pytest.raises(ValueError, match="no node feature"):
+        train_offline(config_for("graph.features=extended"), dataset, steps=1)
