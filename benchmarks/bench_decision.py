@@ -46,7 +46,7 @@ from explore_rl.models.actor_critic import GraphActor  # noqa: E402
 from explore_rl.models.actor_file import DEFAULT_ACTOR, load_actor, resolve  # noqa: E402
 from explore_rl.models.config import ModelConfig  # noqa: E402
 from explore_rl.planning.em import EMPlanner  # noqa: E402
-from explore_rl.planning.learned import LearnedPolicy, greedy_row  # noqa: E402
+from explore_rl.planning.learned import LearnedPolicy, choose_row  # noqa: E402
 from explore_rl.planning.policies import NearestFrontier, PolicyConfig  # noqa: E402
 from explore_rl.planning.revisits import sample_path  # noqa: E402
 from explore_rl.robot import RobotConfig  # noqa: E402
@@ -225,7 +225,7 @@ def measure(n_poses: int, n_candidates: int, setup: BenchSetup, actor: GraphActo
     ms_learned = 1e3 * time_call(lambda: learned.choose(state), max(setup.repeats, 3))
     parts = dict(learned.last_ms)
     encoded = encode(learned.last_graph, LEARNED_GRAPH.max_nodes)
-    ms_paper = 1e3 * time_call(lambda: greedy_row(paper_actor, encoded), max(setup.repeats, 3))
+    ms_paper = 1e3 * time_call(lambda: choose_row(paper_actor, encoded), max(setup.repeats, 3))
     evaluation = em.last_evaluation
     return {"poses": n_poses, "candidates": len(state.candidates), "ms_em": ms_em,
             "path_m": float(np.mean(evaluation.lengths)),

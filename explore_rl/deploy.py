@@ -42,6 +42,7 @@ import torch
 from explore_rl.graph.encode import EncodedGraph, encode
 from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph
 from explore_rl.graph.features import FRONTIER_EXTRAS
+from explore_rl.models.actor_critic import greedy_row
 from explore_rl.models.actor_file import ActorFile, check_output_file, export_actor_file, load_actor
 from explore_rl.models.export import ExportedActor, export_actor
 from explore_rl.trainer.checkpoint import CheckpointError
@@ -144,7 +145,7 @@ class DeployedPolicy:
         frontier_of_row = graph.candidate[encoded.nodes[rows]]
         probabilities = np.zeros(len(graph.frontier_nodes))
         probabilities[frontier_of_row] = probabilities_rows
-        best = int(rows[int(torch.argmax(action_logits))])
+        best = greedy_row(logits, torch.from_numpy(encoded.action_mask[:n]))
         return Decision(int(graph.candidate[encoded.nodes[best]]), probabilities, graph, encoded)
 
     def choose(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> int:

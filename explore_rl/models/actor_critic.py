@@ -108,6 +108,13 @@ class GraphCritic(NodeScorer):
         return masked_mean(self.node_scores(x, adj, node_mask), node_mask).unsqueeze(-1)
 
 
+def greedy_row(logits: Tensor, action_mask: Tensor) -> int:
+    """The most probable action: the row of the largest logit among the ``action_mask``
+    rows (what TorchRL's ``MaskedCategorical`` returns as its deterministic sample). The one
+    greedy choice of evaluation, the runner's learned policy and deployment."""
+    return int(logits.masked_fill(~action_mask, float("-inf")).argmax())
+
+
 def masked_mean(values: Tensor, mask: Tensor) -> Tensor:
     """Mean of ``values[..., N]`` over the True entries of ``mask``; 0 for an empty graph."""
     weights = mask.to(values.dtype)

@@ -37,7 +37,7 @@ from explore_rl.graph.exploration_graph import (
 from explore_rl.graph.features import frontier_extras
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.visibility import line_of_sight
-from explore_rl.models.actor_critic import GraphActor
+from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
 from explore_rl.planning.actions import Action, select_actions
 from explore_rl.planning.config import PlanningConfig
@@ -125,14 +125,12 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
                                 factor_edges(session.graph.edges), extra)
 
 
-def greedy_row(actor: GraphActor, encoded: EncodedGraph) -> int:
-    """Row of the most probable action: the largest logit among the action rows (what
-    TorchRL's ``MaskedCategorical`` returns as its deterministic sample)."""
+def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
+    """Row of the most probable action of ``encoded`` (:func:`greedy_row`)."""
     with torch.no_grad():
         logits = actor(torch.from_numpy(encoded.x)[None], torch.from_numpy(encoded.adj)[None],
                        torch.from_numpy(encoded.node_mask)[None])[0]
-    logits = logits.masked_fill(~torch.from_numpy(encoded.action_mask), float("-inf"))
-    return int(torch.argmax(logits))
+    return greedy_row(logits, torch.from_numpy(encoded.action_mask))
 
 
 class LearnedPolicy:
@@ -176,7 +174,7 @@ class LearnedPolicy:
                                self.planning.em.backend, self.features)
         encoded = encode(graph, self.max_nodes)
         after_graph = time.perf_counter()
-        row = greedy_row(self.actor, encoded)
+        row = choose_row(self.actor, encoded)
         end = time.perf_counter()
         self.last_graph, self.last_encoded = graph, encoded
         self.last_ms = {"actions": 1e3 * (after_actions - start), "graph": 1e3 * (after_graph - after_actions),

@@ -103,17 +103,11 @@ class EpisodeResult:
         return float(np.mean(self.agreements)) if self.agreements else float("nan")
 
 
-def greedy_choice(logits, action_mask) -> int:
-    """The most probable frontier: the highest logit among the ``action_mask`` rows."""
-    import torch
-
-    return int(logits.masked_fill(~action_mask, -torch.inf).argmax())
-
-
 def greedy_actor(config: Config, actor_path: str | Path | None) -> Chooser:
     """The actor of ``actor_path`` (training checkpoint or actor file) choosing greedily."""
     import torch
 
+    from explore_rl.models.actor_critic import greedy_row
     from explore_rl.models.actor_file import load_actor
 
     actor, _ = load_actor(actor_path)
@@ -121,7 +115,7 @@ def greedy_actor(config: Config, actor_path: str | Path | None) -> Chooser:
     def choose(td) -> int:
         with torch.no_grad():
             logits = actor(td["x"], td["adj"], td["node_mask"])
-        return greedy_choice(logits, td["action_mask"])
+        return greedy_row(logits, td["action_mask"])
 
     return choose
 
