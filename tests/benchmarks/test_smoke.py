@@ -43,6 +43,8 @@ SCRIPTS = [
     ("benchmarks/bench_drive.py", [], ["drive_ms_per_decision", "drive_ms_per_decision_reference", "speedup",
                                        "max_abs_logodds_diff", "same_voxels", "same_explored"]),
     ("benchmarks/study_keyframes.py", [], ["table"]),
+    ("benchmarks/collect_decisions.py", ["--out", "{tmp}/decisions", "--set", "train.dataset_capacity=16"],
+     ["decisions", "layouts", "tasks_done", "wall_s", "decisions_per_s", "decisions_per_s_per_worker"]),
     ("scripts/calibrate_loop_closures.py",
      ["--out", "{tmp}/loop_closures.yaml", "--csv", "{tmp}/attempts.csv"],
      ["r_lc", "attempts", "revisits_pose_matching", "accepted_revisits_pose_matching", "false_closures"]),
@@ -52,6 +54,8 @@ SCRIPTS = [
 
 # files the smoke run must have written into the tmp dir
 OUTPUTS = {
+    "benchmarks/collect_decisions.py": ["decisions/dataset.json", "decisions/collect.jsonl",
+                                        "decisions/storage/storage_metadata.json"],
     "benchmarks/study_buildings.py": ["buildings/contact_sheet.png", "buildings/buildings.csv",
                                       "buildings/summary.json", "buildings/table.md", "buildings/eval/ordering.md",
                                       "buildings/eval/ordering.json"],
