@@ -7,15 +7,16 @@ the paper's four columns too) and each feature set, an actor is trained offline 
 per-frontier evaluation, ``expected_reward``) and evaluated under the protocol
 (explore_rl/trainer/evaluate.py: the same validation episodes for every policy, paired
 bootstrap interval of gap_closed). Also reported, cheaply and with less noise: the
-*offline* gap closed on held-out decisions (the last ``--holdout`` of the dataset, never
-trained on): (E_policy - E_random) / (E_EM - E_random) of the Algorithm 1 reward, with E
+*offline* gap closed on held-out decisions (those of the dataset's layouts in
+``--holdout-layouts``, never trained on; training sizes count the other decisions in the
+order they were collected, so a grown dataset keeps its first K): (E_policy - E_random) / (E_EM - E_random) of the Algorithm 1 reward, with E
 the expectation under the policy's probabilities (random: uniform over frontiers; EM: the
 best frontier), and the same figure in-sample. A curve that keeps rising with K says
 data-bound; one that is flat, with in-sample far above held-out or both low, says the
 features (information) bound it.
 
     python benchmarks/study_data.py --dataset /work/data/office_ext --sizes 250 500 1000 2000 \
-        --features paper extended --steps 400 --layouts 1000 1001 --starts 3 --max-decisions 8 \
+        --features paper extended --steps 400 --holdout-layouts 900 1000 --layouts 1000 1001 --starts 3 --max-decisions 8 \
         --workers 2 --out benchmarks/results/data
 
 Writes ``OUT/data_curve.csv``, ``OUT/data_curve.png``, ``OUT/summary.json``, actor files under
@@ -51,7 +52,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="training set sizes (those above what the dataset holds are left out)")
     parser.add_argument("--features", nargs="+", default=list(FEATURE_SETS), choices=FEATURE_SETS)
     parser.add_argument("--steps", type=int, default=400, help="minibatches per actor (the same for every size)")
-    parser.add_argument("--holdout", type=float, default=0.15, help="fraction of the dataset held out (its end)")
+    parser.add_argument("--holdout-layouts", type=int, nargs=2, default=[900, 1000], metavar=("FIRST", "STOP"),
+                        help="dataset layouts [FIRST, STOP) held out of training (offline held-out figure)")
     parser.add_argument("--layouts", type=int, nargs="+", default=[1000, 1001], help="validation layouts")
     parser.add_argument("--starts", type=int, default=3)
     parser.add_argument("--max-decisions", type=int, default=8)
@@ -64,11 +66,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     if args.smoke:
         args.sizes, args.steps, args.layouts, args.starts, args.max_decisions, args.workers = [2, 4], 2, [1000], 1, 1, 1
-        args.holdout = 0.25
+        args.holdout_layouts = [5, 10]
     elif args.dataset is None:
         parser.error("--dataset DIR is required (collect one with benchmarks/collect_decisions.py)")
-    if not 0 < args.holdout < 1:
-        parser.error(f"--holdout must be in (0, 1), got {args.holdout}")
+    if args.holdout_layouts[1] <= args.holdout_layouts[0]:
+        parser.error(f"--holdout-layouts {args.holdout_layouts}: STOP must be > FIRST")
     for key in ("steps", "starts", "max_decisions", "workers"):
         if getattr(args, key) < 1:
             parser.error(f"--{key.replace('_', '-')} must be >= 1, got {getattr(args, key)}")
@@ -76,12 +78,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 
 def smoke_dataset(out: Path) -> Path:
-    """A tiny real dataset for --smoke: one office episode of 5 random decisions."""
+    """A tiny real dataset for --smoke: two office episodes of 3 random decisions."""
     import collect_decisions
 
     path = out / "smoke_dataset"
     collect_decisions.collect(collect_decisions.parse_args(
-        ["--out", str(path), "--tasks", "1", "--max-decisions", "5", "--workers", "1", "--layouts", "0", "10",
+        ["--out", str(path), "--tasks", "2", "--max-decisions", "3", "--workers", "1", "--layouts", "0", "10",
          "--set", "train.dataset_capacity=64"]))
     return path
 
@@ -109,11 +111,14 @@ def offline_gaps(learner, dataset, index, columns) -> float:
             policy.append((probs * rewards).sum(-1))
             uniform.append((rewards * mask).sum(-1) / mask.sum(-1))
             best.append(rewards.masked_fill(~mask, -torch.inf).max(-1).values)
+    if len(index) == 0:
+        return float("nan")
     e_policy, e_random, e_em = (float(torch.cat(v).mean()) for v in (policy, uniform, best))
     return (e_policy - e_random) / (e_em - e_random) if e_em > e_random else float("nan")
 
 
-def train_and_evaluate(args, dataset, features: str, size: int, holdout, train_layouts, out: Path) -> dict:
+def train_and_evaluate(args, dataset, features: str, size: int, trainable, holdout, train_layouts,
+                       out: Path) -> dict:
     import torch
 
     from explore_rl.graph.features import feature_names
@@ -122,11 +127,11 @@ def train_and_evaluate(args, dataset, features: str, size: int, holdout, train_l
 
     config = study_config(args, features, train_layouts)
     torch.manual_seed(args.seed)
-    learner, result = train_offline(config, dataset, args.steps, rows=size)
+    learner, result = train_offline(config, dataset, args.steps, index=trainable[:size])
     columns = dataset.columns_for(feature_names(features))
     actor = save_offline_actor(learner, out / "actors" / f"{features}_{size}.pt",
                                meta={"dataset": str(dataset.path), "rows": size, "steps": args.steps})
-    offline_train = offline_gaps(learner, dataset, torch.arange(size), columns)
+    offline_train = offline_gaps(learner, dataset, trainable[:size], columns)
     offline_holdout = offline_gaps(learner, dataset, holdout, columns)
     start = time.perf_counter()
     results = run_protocol(config, episode_specs(args.layouts, args.starts), ("learned", "em", "random", "nearest"),
@@ -206,26 +211,31 @@ def main(argv: list[str] | None = None) -> None:
     try:
         dataset = DecisionDataset(smoke_dataset(args.out) if args.smoke else args.dataset)
         total = len(dataset)
-        trainable = int(round(total * (1 - args.holdout)))
         layouts = dataset.rows()["layout"]
         seen = sorted(set(layouts.tolist()) & set(args.layouts))
         if seen:
             raise ValueError(f"--layouts {seen} are in the dataset (training layouts): evaluate on held-out ones")
         train_layouts = [int(layouts.min()), int(layouts.max()) + 1]
-        sizes = [s for s in args.sizes if s <= trainable] or [trainable]
-        if max(sizes) < trainable and not args.smoke:
-            sizes.append(trainable)
-        holdout = torch.arange(trainable, total)
+        first, stop = args.holdout_layouts
+        held = (layouts >= first) & (layouts < stop)
+        trainable, holdout = torch.nonzero(~held).flatten(), torch.nonzero(held).flatten()
+        if len(trainable) == 0:
+            raise ValueError(f"every decision of the dataset is in --holdout-layouts {first} {stop}: none to train on")
         if len(holdout) == 0:
-            raise ValueError(f"the dataset's {total} decisions leave none held out at --holdout {args.holdout}")
-        rows = [train_and_evaluate(args, dataset, features, size, holdout, train_layouts, args.out)
+            log.warning("no decision of the dataset is in --holdout-layouts %d %d: no offline held-out figure",
+                        first, stop)
+        sizes = [s for s in args.sizes if s <= len(trainable)] or [len(trainable)]
+        if max(sizes) < len(trainable) and not args.smoke:
+            sizes.append(len(trainable))
+        rows = [train_and_evaluate(args, dataset, features, size, trainable, holdout, train_layouts, args.out)
                 for features in args.features for size in sizes]
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         raise SystemExit(2) from None
     write_csv(rows, args.out / "data_curve.csv")
     plot(rows, args.out / "data_curve.png", total)
-    result = {"dataset": str(dataset.path), "decisions": total, "trainable": trainable, "held_out": len(holdout),
+    result = {"dataset": str(dataset.path), "decisions": total, "trainable": len(trainable), "held_out": len(holdout),
+              "holdout_layouts": args.holdout_layouts,
               "dataset_layouts": len(set(layouts.tolist())), "sizes": sizes, "layouts": args.layouts,
               "starts": args.starts, "max_decisions": args.max_decisions, "steps": args.steps, "rows": rows,
               "wall_s": round(time.perf_counter() - started, 1), "machine": machine(), "smoke": args.smoke}

@@ -3,7 +3,7 @@
 The objective is distillation of EM's per-frontier evaluation, ``expected_reward``: minus
 the policy's expected Algorithm 1 reward over every frontier node -- the same loss as
 ``Learner.distill_loss`` (it *is* that method, on a learner whose distillation weight is 1),
-in minibatches of ``algo.dagger_batch`` drawn uniformly from the first ``rows`` decisions,
+in minibatches of ``algo.dagger_batch`` drawn uniformly from the chosen decisions,
 Adam at ``algo.lr``, gradient clipping at ``algo.max_grad_norm``, and dropout on (as in
 the DAgger steps). No environment runs: the whole cost is the network's. The node-feature
 columns are the ``graph.features`` of the config, taken by name from the dataset (an
@@ -33,7 +33,7 @@ EVAL_CHUNK = 64  # decisions per forward pass when measuring the loss of a whole
 
 @dataclass
 class OfflineResult:
-    """What an offline run did: steps, decisions it drew from, losses, seconds."""
+    """What an offline run did: steps, how many decisions it drew from, losses, seconds."""
 
     steps: int
     rows: int
@@ -48,16 +48,20 @@ def offline_config(config: Config) -> Config:
         config.algo, distill_coef=1.0, distill_target="expected_reward"))
 
 
-def check_rows(dataset: DecisionDataset, rows: int | None) -> int:
-    """How many leading decisions to train on (all by default); ValueError in one line."""
+def check_index(dataset: DecisionDataset, index: torch.Tensor | None) -> torch.Tensor:
+    """The decisions to train on (all by default); ValueError in one line."""
     available = len(dataset)
     if available == 0:
         raise ValueError(f"{dataset.path}: the dataset holds no decisions yet")
-    if rows is None:
-        return available
-    if not 1 <= rows <= available:
-        raise ValueError(f"rows={rows}: the dataset at {dataset.path} holds {available} decisions (1..{available})")
-    return rows
+    if index is None:
+        return torch.arange(available)
+    index = torch.as_tensor(index, dtype=torch.int64).flatten()
+    if len(index) == 0:
+        raise ValueError(f"no decisions chosen to train on (the dataset at {dataset.path} holds {available})")
+    if int(index.min()) < 0 or int(index.max()) >= available:
+        raise ValueError(f"decision index {int(index.max())} is outside the dataset at {dataset.path} "
+                         f"(0..{available - 1})")
+    return index
 
 
 def distill_loss_of(learner: Learner, dataset: DecisionDataset, index: torch.Tensor, columns: list[int]) -> float:
@@ -74,24 +78,24 @@ def distill_loss_of(learner: Learner, dataset: DecisionDataset, index: torch.Ten
     return total / max(count, 1)
 
 
-def train_offline(config: Config, dataset: DecisionDataset, steps: int, rows: int | None = None,
+def train_offline(config: Config, dataset: DecisionDataset, steps: int, index: torch.Tensor | None = None,
                   learner: Learner | None = None) -> tuple[Learner, OfflineResult]:
-    """``steps`` Adam steps of the distillation loss on minibatches of the first ``rows``
-    decisions (all by default), dropout on; returns the learner and what happened.
+    """``steps`` Adam steps of the distillation loss on minibatches of the decisions
+    ``index`` (all by default), dropout on; returns the learner and what happened.
     The minibatches come from the global torch RNG (seed it for a repeatable run)."""
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
-    rows = check_rows(dataset, rows)
+    index = check_index(dataset, index)
     config = offline_config(config)
     columns = dataset.columns_for(feature_names(config.graph.features))
     learner = learner or Learner(config)
-    result = OfflineResult(steps=steps, rows=rows, seconds=0.0)
+    result = OfflineResult(steps=steps, rows=len(index), seconds=0.0)
     start = time.perf_counter()
     learner.set_training(True)
     try:
         for step in range(steps):
-            index = torch.randint(rows, (min(config.algo.dagger_batch, rows),))
-            loss = learner.distill_loss(padded_batch(dataset.rows(index), columns))
+            drawn = index[torch.randint(len(index), (min(config.algo.dagger_batch, len(index)),))]
+            loss = learner.distill_loss(padded_batch(dataset.rows(drawn), columns))
             grad_norm, why_not = learner.gradient_step(loss)
             if grad_norm is None:
                 result.skipped_steps += 1

@@ -67,8 +67,9 @@ def test_an_offline_actor_file_loads_and_scores_like_the_learner(dataset, tmp_pa
 
 
 def test_bad_offline_inputs_fail_in_one_line(dataset, tmp_path):
-    for kwargs, message in (({"steps": 0}, "steps must be >= 1"), ({"steps": 1, "rows": 10_000}, "rows=10000"),
-                            ({"steps": 1, "rows": 0}, "rows=0")):
+    outside = torch.tensor([0, len(dataset)])
+    for kwargs, message in (({"steps": 0}, "steps must be >= 1"), ({"steps": 1, "index": outside}, "outside"),
+                            ({"steps": 1, "index": torch.tensor([], dtype=torch.int64)}, "no decisions chosen")):
         with pytest.raises(ValueError, match=message) as error:
             train_offline(config_for(), dataset, **kwargs)
         assert "\n" not in str(error.value)
