@@ -51,6 +51,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--sizes", type=int, nargs="+", default=[250, 500, 1000, 2000, 4000, 16000, 64000],
                         help="training set sizes (those above what the dataset holds are left out)")
     parser.add_argument("--features", nargs="+", default=list(FEATURE_SETS), choices=FEATURE_SETS)
+    parser.add_argument("--no-full", action="store_true", help="only --sizes, not also the whole training set")
     parser.add_argument("--steps", type=int, default=400, help="minibatches per actor (the same for every size)")
     parser.add_argument("--holdout-layouts", type=int, nargs=2, default=[900, 1000], metavar=("FIRST", "STOP"),
                         help="dataset layouts [FIRST, STOP) held out of training (offline held-out figure)")
@@ -225,7 +226,7 @@ def main(argv: list[str] | None = None) -> None:
             log.warning("no decision of the dataset is in --holdout-layouts %d %d: no offline held-out figure",
                         first, stop)
         sizes = [s for s in args.sizes if s <= len(trainable)] or [len(trainable)]
-        if max(sizes) < len(trainable) and not args.smoke:
+        if max(sizes) < len(trainable) and not (args.smoke or args.no_full):
             sizes.append(len(trainable))
         rows = [train_and_evaluate(args, dataset, features, size, trainable, holdout, train_layouts, args.out)
                 for features in args.features for size in sizes]
