@@ -17,6 +17,12 @@ The choice is ``argmax U0 - U' - alpha * path_length``. Everything that does not
 on the candidate -- old marginals, which landmarks each old pose sees and the Jacobians
 of those observations (:class:`Observations`), ``U0`` -- is computed once per decision
 (:class:`DecisionContext`); a loop candidate then only re-reads marginals and re-fuses.
+
+Two backends (``planning.em.backend``): ``reference`` is the forward simulation above (an
+iSAM2 copy per loop candidate, one ``marginalCovariance`` query per pose); ``fast`` (the
+default) gets the same utilities from one factorisation of the live graph per decision,
+loops as low-rank updates and one batched re-fusion for all candidates
+(explore_rl/planning/em_fast.py; tolerance and evidence in tests/planning/test_em_fast.py).
 """
 
 from __future__ import annotations
