@@ -27,6 +27,7 @@ loops as low-rank updates and one batched re-fusion for all candidates
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -59,6 +60,8 @@ from explore_rl.slam.pose_graph import PoseGraph, key, odometry_covariance
 
 if TYPE_CHECKING:
     from explore_rl.state import ExplorationState
+
+log = logging.getLogger(__name__)
 
 # Rows/columns (x, y, yaw) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz).
 PLANAR_TANGENT = [3, 4, 2]
@@ -158,9 +161,14 @@ def world_covariances(graph: PoseGraph, poses: np.ndarray) -> np.ndarray:
 def pose_covariances(graph: PoseGraph, poses: np.ndarray, backend: str) -> tuple[np.ndarray, FastContext | None]:
     """``(N, 3, 3)`` world-frame (x, y, yaw) marginals of every keyframe: one iSAM2 query
     per pose (``reference``) or one factorisation of the graph (``fast``, which also
-    returns the factorisation for EM's candidates)."""
+    returns the factorisation for EM's candidates). If the factorisation fails (a
+    singular or unexpected system) this decision falls back to the reference, logged."""
     if backend == "fast":
-        return fast_world_covariances(graph, poses)
+        try:
+            return fast_world_covariances(graph, poses)
+        except (RuntimeError, ValueError, np.linalg.LinAlgError) as error:
+            log.warning("fast EM marginals failed at %d poses (%s); this decision uses the reference backend",
+                        len(poses), error)
     return world_covariances(graph, poses), None
 
 

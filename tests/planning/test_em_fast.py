@@ -122,6 +122,22 @@ def test_fast_context_has_the_reference_marginals():
     np.testing.assert_allclose(fast.landmark_covs, reference.landmark_covs, rtol=1e-8)
 
 
+def test_a_failed_factorisation_falls_back_to_the_reference(monkeypatch, caplog):
+    """Degenerate systems are handled and logged: that decision uses the graph copies."""
+    import explore_rl.planning.em_fast as em_fast
+
+    def singular(graph):
+        raise RuntimeError("Factor is exactly singular")
+
+    monkeypatch.setattr(em_fast.FastContext, "of", staticmethod(singular))
+    state = tour_state(3.0)
+    with caplog.at_level("WARNING"):
+        fast = planner(backend="fast").evaluate(state)
+    assert "uses the reference backend" in caplog.text
+    reference = planner().evaluate(state)
+    np.testing.assert_allclose(fast.u_after, reference.u_after, rtol=1e-12)
+
+
 # ---------------------------------------------------------------------- recorded episodes
 
 
