@@ -25,7 +25,7 @@ from explore_rl.sensors.lidar import LidarConfig
 
 RADIUS = RobotConfig().radius
 CONF = Path(__file__).resolve().parents[2] / "conf" / "scene" / "building.yaml"
-MANY_SEEDS = range(60)
+MANY_SEEDS = range(200)
 
 
 def config(seed: int = 0, **building) -> SceneConfig:
