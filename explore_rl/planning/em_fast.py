@@ -195,16 +195,17 @@ def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_las
               old_tangent, new_tangent) -> tuple[np.ndarray, np.ndarray]:
     """Condition the chain's joint on the ``m`` loops ``eta_k - eta_r ~ N(0, R)``; only the
     planar rows/columns (yaw, x, y) of each updated marginal are needed, the rest are kept."""
-    last = len(context.poses) - 1
-    m = len(revisited)
+    n, m = len(context.poses), len(revisited)
+    planar = [ROT_Z, TRANS_X, TRANS_Y]
     adj_r = planar_adjoint(context.poses[revisited])  # (m, 6, 6)
-    cross = fast.marginals.cross_blocks(np.r_[revisited, last])  # (N, m + 1, 6, 6): Cov(xi_a, xi_j)
-    cross_r, cross_last = cross[:, :m], cross[:, m]
-    # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}: (N, m, 6, 6)
-    u_old = (cross_last @ adj_last.T)[:, None] - cross_r @ np.swapaxes(adj_r, 1, 2)[None]
+    columns = fast.marginals.columns(np.r_[revisited, n - 1]).reshape(n, BLOCK, m + 1, BLOCK)
+    # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, 6)
+    rows = columns[:, planar]
+    u_old = (rows[:, :, m] @ adj_last.T)[:, :, None] - (rows[:, :, :m, None, :] @ np.swapaxes(adj_r, 1, 2))[..., 0, :]
     # the loops' own covariance S0 = Cov(y) and R (world-frame loop noise at k_j)
-    eta_r_r = adj_r[:, None] @ cross_r[revisited] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, 6, 6)
-    eta_r_k = adj_r @ cross_last[revisited] @ adj_last.T  # (m, 6, 6): Cov(eta_r, eta_k) for any k
+    at_r = columns[revisited].transpose(0, 2, 1, 3)  # (m, m + 1, 6, 6): Cov(xi_r, xi_j)
+    eta_r_r = adj_r[:, None] @ at_r[:, :m] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, 6, 6)
+    eta_r_k = adj_r @ at_r[:, m] @ adj_last.T  # (m, 6, 6): Cov(eta_r, eta_k) for any new k
     eta_k_k = world[np.minimum(at[:, None], at[None, :])]  # (m, m, 6, 6)
     s0 = eta_k_k - np.swapaxes(eta_r_k, 1, 2)[None] - eta_r_k[:, None] + eta_r_r
     diag = np.arange(m)
@@ -214,16 +215,15 @@ def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_las
     # new keyframes: Cov(xi_k, y_j) = Ad(T_k^-1) [W_min(k, k_j) - Cov(eta_r_j, eta_k)^T]
     k = np.arange(len(world))
     u_new = adj_new_inv[:, None] @ (world[np.minimum(k[:, None], at[None, :])] - np.swapaxes(eta_r_k, 1, 2)[None])
-    planar = [ROT_Z, TRANS_X, TRANS_Y]
-    old_tangent = _downdate(old_tangent, u_old, gain, planar)
-    new_tangent = _downdate(new_tangent, u_new, gain, planar)
+    old_tangent = _downdate(old_tangent, u_old.reshape(n, 3, m * BLOCK), gain, planar)
+    new_tangent = _downdate(new_tangent, u_new[:, :, planar, :].transpose(0, 2, 1, 3).reshape(len(world), 3, -1),
+                            gain, planar)
     return old_tangent, new_tangent
 
 
-def _downdate(covs: np.ndarray, u: np.ndarray, gain: np.ndarray, rows: list[int]) -> np.ndarray:
-    """``covs - U gain U^T`` on the ``rows`` block of each covariance (``u (N, m, 6, 6)``)."""
-    n, m = u.shape[:2]
-    u_rows = u[:, :, rows, :].transpose(0, 2, 1, 3).reshape(n, len(rows), m * BLOCK)
+def _downdate(covs: np.ndarray, u_rows: np.ndarray, gain: np.ndarray, rows: list[int]) -> np.ndarray:
+    """``covs - U gain U^T`` on the ``rows`` block of each covariance (``u_rows (N, 3, 6m)``:
+    the cross-covariances of those rows with the loops)."""
     out = covs.copy()
     block = np.ix_(rows, rows)
     out[:, block[0], block[1]] = covs[:, block[0], block[1]] - u_rows @ gain @ np.swapaxes(u_rows, 1, 2)
