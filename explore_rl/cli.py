@@ -287,9 +287,9 @@ def check_run_dir(config: Config, run_dir: Path) -> None:
 @entry_point("train")
 def train(cfg: DictConfig) -> None:
     """Train the g-U-Net actor-critic with A2C (explore_rl/trainer/a2c.py)."""
-    from explore_rl.trainer.a2c import TrainingRun
+    from explore_rl.trainer.a2c import TrainingRun, resolve_device
 
-    config, _ = build_or_fail(cfg, lambda c: None)
+    config, _ = build_or_fail(cfg, lambda c: resolve_device(c.train.device))  # a missing GPU: one line
     check_optional_dependencies(config)
     run_dir = training_run_dir(config)
     check_run_dir(config, run_dir)

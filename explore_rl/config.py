@@ -7,6 +7,7 @@ live next to the code they configure; this module only assembles them.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
@@ -284,6 +285,8 @@ def validate_training(config: Config) -> None:
         raise ValueError(f"algo.dagger_steps must be >= 0 (0 = no replay), got {algo.dagger_steps}")
     if algo.dagger_steps > 0 and algo.distill_coef == 0:
         raise ValueError("algo.dagger_steps > 0 needs algo.distill_coef > 0 (the weight of those steps)")
+    if not re.fullmatch(r"auto|cpu|cuda(:\d+)?", train.device):
+        raise ValueError(f"train.device={train.device!r}: choose auto, cpu or cuda[:index]")
     if not train.max_minutes >= 0:
         raise ValueError(f"train.max_minutes must be >= 0 (0 = no wall-clock budget), got {train.max_minutes}")
     if train.snapshot_every < 0:

@@ -26,6 +26,7 @@ seeded), so with one worker the next update equals the uninterrupted run's.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import logging
 import math
@@ -59,6 +60,29 @@ MAX_COLLECTOR_RESTARTS = 5  # per run: more means something is broken, not unluc
 # ---------------------------------------------------------------------- the learner
 
 
+def resolve_device(name: str) -> torch.device:
+    """``train.device``: auto (CUDA if there is one, else CPU), cpu or cuda[:k]; a device
+    that is not there is a one-line error before anything runs."""
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cpu":
+        return torch.device("cpu")
+    if name.startswith("cuda"):
+        if not torch.cuda.is_available():
+            raise ValueError(f"train.device={name}: no CUDA device here (torch.cuda.is_available() is False); "
+                             "use train.device=cpu or auto")
+        device = torch.device(name)
+        if device.index is not None and device.index >= torch.cuda.device_count():
+            raise ValueError(f"train.device={name}: only {torch.cuda.device_count()} CUDA device(s) here")
+        return device
+    raise ValueError(f"train.device={name!r}: choose auto, cpu or cuda[:index]")
+
+
+def cpu_state(module: torch.nn.Module) -> dict[str, torch.Tensor]:
+    """``module``'s state dict on the CPU (checkpoints and collectors are device-free)."""
+    return {key: value.detach().cpu() for key, value in module.state_dict().items()}
+
+
 @dataclass
 class UpdateStats:
     """Figures of one update (all floats, for the logger)."""
@@ -79,8 +103,12 @@ class Learner:
         algo = config.algo
         self.config = config
         n_features = len(feature_names(config.graph.features))
-        self.actor = make_actor(config.model, n_features, action_spec)
-        self.critic = make_critic(config.model, n_features)
+        self.device = resolve_device(config.train.device)
+        self.actor = make_actor(config.model, n_features, action_spec).to(self.device)
+        self.critic = make_critic(config.model, n_features).to(self.device)
+        # what the collectors act with: the actor itself on a CPU learner, else a CPU copy
+        # that receives the learner's weights after every step (collectors stay on CPU)
+        self.acting_actor = self.actor if self.device.type == "cpu" else copy.deepcopy(self.actor).cpu()
         self.loss = A2CLoss(self.actor, self.critic, entropy_coeff=algo.entropy_coef,
                             critic_coeff=algo.value_coef, loss_critic_type="smooth_l1")
         # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace
@@ -108,6 +136,7 @@ class Learner:
         sampled the actions. Dropout regularises only the replayed distillation steps."""
         algo = self.config.algo
         self.set_training(False)
+        batch = batch.to(self.device)
         with torch.no_grad():
             batch = self.loss.value_estimator(batch)  # advantage + value target
         losses = self.loss(batch)
@@ -136,6 +165,8 @@ class Learner:
             self.optimizer.zero_grad()
             return None, f"gradient norm is {grad_norm.item()}"
         self.optimizer.step()
+        if self.acting_actor is not self.actor:
+            self.acting_actor.load_state_dict(cpu_state(self.actor))
         return grad_norm, ""
 
     def replay(self, batch: TensorDictBase) -> float | None:
@@ -156,7 +187,7 @@ class Learner:
         self.set_training(True)
         try:
             for _ in range(algo.dagger_steps):
-                loss = algo.distill_coef * self.distill_loss(self.labels.sample())
+                loss = algo.distill_coef * self.distill_loss(self.labels.sample().to(self.device))
                 grad_norm, why_not = self.gradient_step(loss)
                 if grad_norm is None:
                     log.warning("a replayed distillation step was skipped (%s)", why_not)
@@ -276,6 +307,7 @@ class TrainingRun:
         check_weights(path, "actor", checkpoint.actor, self.learner.actor)
         check_weights(path, "critic", checkpoint.critic, self.learner.critic)
         self.learner.actor.load_state_dict(checkpoint.actor)
+        self.learner.acting_actor.load_state_dict(checkpoint.actor)
         self.learner.critic.load_state_dict(checkpoint.critic)
         self.learner.optimizer.load_state_dict(checkpoint.optimizer)
         if checkpoint.label_buffer is not None:
@@ -296,7 +328,7 @@ class TrainingRun:
             log.info("nothing to do: %d of %d decisions, %.1f min already", self.state.frames,
                      self.config.train.frames, self.state.wall_s / 60)
             return self.state
-        collector = make_collector(self.config, self.learner.actor, self.episodes.replays())
+        collector = make_collector(self.config, self.learner.acting_actor, self.episodes.replays())
         collector.update_policy_weights_()  # remote (Ray) collectors wait for a first sync
         if self.torch_rng is not None:
             torch.set_rng_state(self.torch_rng)  # after building the collector, before acting
@@ -313,7 +345,8 @@ class TrainingRun:
                                   restarts, MAX_COLLECTOR_RESTARTS)
                     self.failed_collections += 1
                     collector.shutdown()
-                    collector = make_collector(self.config, self.learner.actor, self.episodes.abandon_running())
+                    collector = make_collector(self.config, self.learner.acting_actor,
+                                               self.episodes.abandon_running())
                     collector.update_policy_weights_()
             self.save("last")
         finally:
@@ -362,7 +395,7 @@ class TrainingRun:
     def save(self, name: str) -> Path:
         self.state.episodes = self.episodes.state_dict()
         return save_checkpoint(self.checkpoints / f"{name}.pt", Checkpoint(
-            config=self.config, actor=self.learner.actor.state_dict(), critic=self.learner.critic.state_dict(),
+            config=self.config, actor=cpu_state(self.learner.actor), critic=cpu_state(self.learner.critic),
             optimizer=self.learner.optimizer.state_dict(), state=dataclasses.asdict(self.state),
             torch_rng=torch.get_rng_state(),
             # the replay buffer only where a resume reads it: snapshots stay small

@@ -84,6 +84,9 @@ class TrainConfig:
     # updates between numbered snapshots checkpoints/update_<k>.pt (learning curves); 0 = none
     snapshot_every: int = 0
     threads: int = 1  # torch threads of the learner (each env worker uses one core anyway)
+    # where the actor-critic and its update run: auto (CUDA if present) | cpu | cuda[:k];
+    # the collectors' env workers always act on CPU with CPU copies of the weights
+    device: str = "auto"
     # wall-clock budget in minutes (resumed runs count their earlier time); 0 = none. The run
     # stops after the update that crosses it (equal-wall-clock comparisons)
     max_minutes: float = 0.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import subprocess
 import sys
 
@@ -270,3 +271,36 @@ def test_a_wall_clock_budget_ends_the_run_after_the_update_that_crosses_it(tmp_p
     assert (tmp_path / "run" / "checkpoints" / "last.pt").is_file()
     with pytest.raises(ValueError, match="train.max_minutes must be >= 0"):
         config_for("train.max_minutes=-1")
+
+
+def test_train_device_cpu_explicitly_and_a_missing_gpu_is_one_line(tmp_path):
+    state = train(config_for("train.frames=5", "train.device=cpu"), tmp_path / "run")
+    assert state.updates == 1
+    checkpoint = read_checkpoint(tmp_path / "run" / "checkpoints" / "last.pt")
+    assert all(value.device.type == "cpu" for value in checkpoint["actor"].values())
+    with pytest.raises(ValueError, match=r"train.device='tpu': choose auto, cpu or cuda"):
+        config_for("train.device=tpu")
+    if not torch.cuda.is_available():
+        from explore_rl.trainer.a2c import resolve_device
+
+        assert resolve_device("auto").type == "cpu"
+        with pytest.raises(ValueError, match="train.device=cuda: no CUDA device here"):
+            resolve_device("cuda")
+        command = [sys.executable, "-c", "from explore_rl.cli import train; train()", *FAST,
+                   "train.device=cuda", f"out={tmp_path / 'gpu'}"]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 2 and "no CUDA device here" in done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1 and not (tmp_path / "gpu").exists()
+
+
+def test_a_learner_on_another_device_acts_with_a_cpu_copy_of_its_weights(batch):
+    """What a GPU learner does, on the CPU: the collectors' actor is a separate CPU module
+    that receives the learner's weights after every step."""
+    from explore_rl.trainer.a2c import cpu_state
+
+    config = config_for("algo.distill_coef=1.0")
+    learner = Learner(config, make_env(config).action_spec)
+    learner.acting_actor = copy.deepcopy(learner.actor)  # as a non-CPU learner builds it
+    learner.update(batch.clone())
+    for key, value in cpu_state(learner.actor).items():
+        assert torch.equal(learner.acting_actor.state_dict()[key], value), key
