@@ -4,9 +4,10 @@ and where a step's time goes.
 Office, ``slam=model``, one process, the same seed, starts and random valid actions
 (``torch.manual_seed``) for every run, so both EM backends score the same states:
 
-* the env with random valid actions (the figure training sees early on), once with
-  ``planning.em.backend=fast`` (the default) and once with ``reference`` (an iSAM2 copy
-  per loop candidate, one marginal query per pose): decisions/s of each and their ratio
+* the env with random valid actions (the figure training sees early on), one env with
+  ``planning.em.backend=fast`` (the default) and one with ``reference`` (an iSAM2 copy
+  per loop candidate, one marginal query per pose) stepped in lockstep with the same
+  actions (a shared machine's load falls on both alike): decisions/s of each and their ratio
   (``speedup``), the fraction of decisions where EM chose the same frontier
   (``same_em_choice``), the largest gap between their Algorithm 1 rewards, and per
   decision the time in observe (escape, frontiers, Dijkstra), context (action set, pose
@@ -75,35 +76,63 @@ def with_backend(config, backend: str):
 
 
 def run_env(config, episodes: int, max_decisions: int, follow_em: bool, min_decisions: int = 0) -> dict:
-    """Episodes of the env with random valid actions (or EM's); figures per decision and
-    each decision's EM choice and Algorithm 1 rewards. Runs at least ``episodes`` episodes
-    and more until ``min_decisions`` decisions."""
-    make_env(config).reset()  # warm-up (first-call costs of the process) on a throwaway env, not timed
-    env = make_env(config)
+    """Episodes of one env with random valid actions (or EM's): :func:`run_lockstep` of one."""
+    return run_lockstep({"env": config}, episodes, max_decisions, follow_em, min_decisions)["env"]
+
+
+def run_lockstep(configs: dict, episodes: int, max_decisions: int, follow_em: bool = False,
+                 min_decisions: int = 0) -> dict[str, dict]:
+    """Envs of ``configs`` stepped in lockstep on the same episodes: each decision, one
+    random valid action (the first env's mask; the states are the same) goes to every env,
+    one after the other, so a shared machine's changing load falls on all of them alike.
+    Per env: figures per decision and each decision's EM choice and Algorithm 1 rewards.
+    Runs at least ``episodes`` episodes and more until ``min_decisions`` decisions."""
+    make_env(next(iter(configs.values()))).reset()  # warm-up (first-call costs of the process), not timed
+    envs = {name: make_env(config) for name, config in configs.items()}
     torch.manual_seed(0)
-    decisions, em_actions, rewards, start = 0, [], [], time.perf_counter()
-    episode = 0
+    wall = dict.fromkeys(envs, 0.0)
+    em_actions = {name: [] for name in envs}
+    rewards = {name: [] for name in envs}
+    decisions, episode, diverged = 0, 0, 0
+    tds = {}
     while episode < episodes or decisions < min_decisions:
-        td = env.reset()
+        for name, env in envs.items():
+            start = time.perf_counter()
+            tds[name] = env.reset()
+            wall[name] += time.perf_counter() - start
         episode += 1
         for _ in range(max_decisions):
-            em_actions.append(int(td["em_action"]))
-            rewards.append(td["action_rewards"].numpy().copy())
-            td = td.set("action", td["em_action"]) if follow_em else env.rand_action(td)
-            td = env.step(td)["next"]
+            first = next(iter(envs))
+            action = None if follow_em else envs[first].rand_action(tds[first].clone())["action"]
+            for name, env in envs.items():
+                td = tds[name]
+                em_actions[name].append(int(td["em_action"]))
+                rewards[name].append(td["action_rewards"].numpy().copy())
+                td = td.set("action", td["em_action"] if follow_em else action.clone())
+                start = time.perf_counter()
+                tds[name] = env.step(td)["next"]
+                wall[name] += time.perf_counter() - start
             decisions += 1
-            if td["done"].item():
+            done = [bool(td["done"].item()) for td in tds.values()]
+            diverged += len(set(done)) > 1
+            if done[0]:
                 break
-    wall = time.perf_counter() - start
+    return {name: env_figures(env, tds[name], decisions, episode, wall[name], em_actions[name], rewards[name],
+                              diverged) for name, env in envs.items()}
+
+
+def env_figures(env, td, decisions: int, episodes: int, wall: float, em_actions: list, rewards: list,
+                diverged: int) -> dict:
+    """Figures of one env's run (per decision: the env's stage timers)."""
     timings = env.timings_ms()
     per_decision = {f"ms_{stage}": round(timings.get(stage, 0.0) / max(decisions, 1), 1) for stage in STAGES}
     step_ms = 1e3 * wall / max(decisions, 1)
-    return {"decisions": decisions, "episodes": episode, "wall_s": round(wall, 1),
+    return {"decisions": decisions, "episodes": episodes, "wall_s": round(wall, 1),
             "decisions_per_s": round(decisions / wall, 3), "ms_per_decision": round(step_ms, 1),
             **per_decision, "graph_fraction": round(per_decision["ms_graph"] / step_ms, 4),
             "max_nodes_seen": env.max_nodes_seen, "failures": dict(env.failures),
             "explored": round(float(td["explored"]), 4), "travel_m": round(float(td["travel"]), 1),
-            "em_actions": em_actions, "rewards": rewards}
+            "done_diverged": diverged, "em_actions": em_actions, "rewards": rewards}
 
 
 def run_runner_em(config, max_decisions: int) -> dict:
@@ -139,8 +168,7 @@ def benchmark(args: argparse.Namespace) -> None:
     episodes, max_decisions = (1, 2) if args.smoke else (1, 12) if args.quick else (3, 300)
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
                           f"explore.max_decisions={max_decisions}"])
-    runs = {backend: run_env(with_backend(config, backend), episodes, max_decisions, follow_em=False)
-            for backend in BACKENDS}
+    runs = run_lockstep({backend: with_backend(config, backend) for backend in BACKENDS}, episodes, max_decisions)
     fast, reference = runs["fast"], runs["reference"]
     env_em = run_env(config, 1, max_decisions, follow_em=True)
     runner_em = run_runner_em(config, max_decisions)
