@@ -170,6 +170,7 @@ def plot(rows: list[dict], path: Path, decisions: int) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for features, colour in zip(FEATURE_SETS, ("tab:blue", "tab:orange")):
@@ -186,6 +187,7 @@ def plot(rows: list[dict], path: Path, decisions: int) -> None:
                      label=f"{features}: in sample")
     for ax in axes:
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.axhline(0, c="gray", lw=0.8)
         ax.axhline(1, c="gray", lw=0.8, ls="--")
         ax.grid(alpha=0.3)
