@@ -8,7 +8,8 @@ the one writer: it appends each finished episode's decisions to the dataset fold
 (explore_rl/trainer/dataset.py) and a line to ``PATH/collect.jsonl`` (task, layout,
 decisions, seconds). Running the same command again resumes: finished tasks are skipped
 (task ``k`` is one episode with its own seed, so a task means the same episode whenever
-it runs); ``--tasks`` larger grows the dataset.
+it runs); ``--tasks`` larger grows the dataset. Each scene has its own tasks, so office and
+building episodes can go into one folder (run once per ``--scene``).
 
     python benchmarks/collect_decisions.py --out /work/data/office_ext --scene office --layouts 0 500 \
         --tasks 400 --max-decisions 20 --workers 2 [--policy random | --actor FILE [--sample]] \
@@ -150,6 +151,13 @@ def append_progress(path: Path, row: dict) -> None:
         handle.write(json.dumps(row) + "\n")
 
 
+def tasks_done_for(rows: list[dict], scene: str) -> set[int]:
+    """The tasks of ``scene`` already in the dataset: one folder can hold several scenes'
+    episodes (office and building), each scene with its own task numbers. Rows written
+    before the scene was recorded count as office."""
+    return {row["task"] for row in rows if "task" in row and row.get("scene", "office") == scene}
+
+
 def open_dataset(config: Config):
     from explore_rl.graph.features import feature_names
     from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset
@@ -164,7 +172,7 @@ def collect(args: argparse.Namespace) -> dict:
     """Play the tasks not yet done, append their decisions; the summary."""
     config = collection_config(args)
     dataset = open_dataset(config)
-    done = {row["task"] for row in read_progress(dataset.path) if "task" in row}
+    done = tasks_done_for(read_progress(dataset.path), args.scene)
     todo = [k for k in range(args.tasks) if k not in done]
     log.info("%s: %d decisions, %d tasks done, %d to play", dataset.path, len(dataset), len(done), len(todo))
     started, stored = time.perf_counter(), 0
@@ -187,6 +195,7 @@ def collect(args: argparse.Namespace) -> dict:
                 except Exception as error:  # noqa: BLE001 -- one bad episode is logged, the rest go on
                     log.error("an episode failed: %s: %s", type(error).__name__, error)
                     continue
+                info["scene"] = args.scene
                 info["stored"] = dataset.append(decisions, args.scene)
                 stored += info["stored"]
                 info["wall_s"] = round(time.perf_counter() - started, 1)

@@ -44,7 +44,9 @@ from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
-from explore_rl.trainer.checkpoint import Checkpoint, check_weights, load_checkpoint, save_checkpoint
+from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
+from explore_rl.trainer.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
+                                           save_checkpoint)
 from explore_rl.trainer.episodes import EpisodeTracker
 from explore_rl.trainer.imitation import DatasetLabels, compact_decisions, make_labels
 from explore_rl.trainer.logs import RunLogger
@@ -120,6 +122,22 @@ class Learner:
         self.labels = make_labels(config)  # in memory, or the dataset at train.dataset
         self.skipped_updates = 0
         self.set_training(False)
+
+    def load_initial_actor(self, path: str | Path) -> None:
+        """Start from the actor of an actor file or checkpoint (``train.init_actor``), e.g.
+        an offline-distilled one that A2C then fine-tunes; the critic starts fresh. The
+        file must read this run's node features with this run's model (one-line error)."""
+        actor_file = read_actor_file(path)
+        wanted = list(feature_names(self.config.graph.features))
+        if actor_file.features != wanted:
+            raise CheckpointError(f"train.init_actor={path}: the actor reads graph.features="
+                                  f"{actor_file.feature_set}, this run {self.config.graph.features}: "
+                                  f"set graph.features={actor_file.feature_set}")
+        graph_actor = build_actor(path, actor_file, self.config.model)  # model and weights checked
+        self.actor.load_state_dict({TRAINING_PREFIX + key: value for key, value in graph_actor.state_dict().items()})
+        if self.acting_actor is not self.actor:
+            self.acting_actor.load_state_dict(self.actor.state_dict())
+        log.info("initial actor weights from %s", path)
 
     def set_training(self, on: bool) -> None:
         """Dropout on (supervised replay steps) or off (acting, evaluation, the A2C update)."""
@@ -297,6 +315,8 @@ class TrainingRun:
         self.failed_collections = 0
         if config.resume:
             self.restore()
+        elif config.train.init_actor:
+            self.learner.load_initial_actor(config.train.init_actor)
         self.logger = RunLogger(self.dir / "logs", config.logger.kind, resume_at=self.state.frames,
                                 progress_total=config.train.frames if config.train.progress_bar else None,
                                 progress_start=self.state.frames)

@@ -96,9 +96,16 @@ class TrainConfig:
     dataset: Optional[str] = None
     dataset_capacity: int = 200_000  # decisions a new dataset holds (sparse memory-mapped files)
     dataset_max_edges: int = 2048  # edges per stored decision (a larger graph is skipped and logged)
+    # actor file (or training checkpoint) whose actor weights start a new run, e.g. an
+    # offline-distilled actor fine-tuned with A2C; None = random initial weights. A resumed
+    # run takes its weights from its own checkpoint instead
+    init_actor: Optional[str] = None
 
     def validate(self) -> None:
-        """One-line ValueError naming the key for a bad dataset setting."""
+        """One-line ValueError naming the key for a bad dataset or initial-actor setting."""
+        if self.init_actor is not None and not Path(self.init_actor).is_file():
+            raise ValueError(f"train.init_actor={self.init_actor}: no such file (give an actor file from "
+                             "explore-rl-export or an offline run, or null for random initial weights)")
         if self.dataset_capacity < 1 or self.dataset_max_edges < 1:
             raise ValueError(f"train.dataset_capacity and train.dataset_max_edges must be >= 1, got "
                              f"{self.dataset_capacity}, {self.dataset_max_edges}")

@@ -8,21 +8,29 @@ Adam at ``algo.lr``, gradient clipping at ``algo.max_grad_norm``, and dropout on
 the DAgger steps). No environment runs: the whole cost is the network's. The node-feature
 columns are the ``graph.features`` of the config, taken by name from the dataset (an
 ``extended`` dataset also trains a ``paper`` actor).
+
+As a command (writes an actor file for ``policy.checkpoint`` or ``train.init_actor``)::
+
+    explore-rl-distill --dataset DIR --out actor.pt [--steps 1000] [--scenes office building] \
+        [--seed 0] [--set KEY=VALUE ...]   # e.g. --set graph.features=extended algo.lr=1e-3
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
 import logging
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import torch
 
-from explore_rl.config import Config
+from explore_rl.config import Config, load_config
 from explore_rl.graph.features import feature_names
-from explore_rl.models.actor_file import TRAINING_PREFIX, ActorFile, save_actor_file
+from explore_rl.models.actor_file import TRAINING_PREFIX, ActorFile, check_output_file, save_actor_file
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 
@@ -123,3 +131,55 @@ def save_offline_actor(learner: Learner, path: str | Path, meta: dict | None = N
                            meta={"kind": "offline distillation (expected_reward)", "scene": config.scene.name,
                                  "train_layouts": config.env.train_layouts, **(meta or {})})
     return save_actor_file(path, actor_file)
+
+
+def scene_index(dataset: DecisionDataset, scenes: list[str] | None) -> torch.Tensor:
+    """The decisions of ``scenes`` (all by default); ValueError naming a scene it lacks."""
+    if not scenes:
+        return torch.arange(len(dataset))
+    missing = [name for name in scenes if name not in dataset.schema.scenes]
+    if missing:
+        raise ValueError(f"--scenes {missing[0]}: the dataset at {dataset.path} holds {dataset.schema.scenes}")
+    wanted = torch.tensor([dataset.schema.scenes.index(name) for name in scenes])
+    return torch.nonzero(torch.isin(dataset.rows()["scene"], wanted)).flatten()
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``explore-rl-distill``: an actor file distilled offline from a dataset (see the module
+    docstring); prints one JSON line (steps, decisions, layouts, seconds, final loss)."""
+    parser = argparse.ArgumentParser(prog="explore-rl-distill", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--dataset", required=True, help="dataset folder (benchmarks/collect_decisions.py)")
+    parser.add_argument("--out", required=True, help="actor file to write, e.g. runs/distilled/actor.pt")
+    parser.add_argument("--steps", type=int, default=1000, help="minibatches of algo.dagger_batch decisions")
+    parser.add_argument("--scenes", nargs="*", default=None, help="train on these scenes' decisions only")
+    parser.add_argument("--seed", type=int, default=0, help="initial weights and minibatch order")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="config overrides, e.g. graph.features=extended algo.lr=1e-3")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    try:
+        if args.steps < 1:
+            raise ValueError(f"--steps must be >= 1, got {args.steps}")
+        check_output_file(args.out)
+        config = load_config([*args.set, f"seed={args.seed}"])
+        dataset = DecisionDataset(args.dataset)
+        index = scene_index(dataset, args.scenes)
+        torch.manual_seed(args.seed)
+        learner, result = train_offline(config, dataset, args.steps, index=index)
+    except ValueError as error:  # CheckpointError too
+        print(f"error: {error}", file=sys.stderr)
+        raise SystemExit(2) from None
+    rows = dataset.rows(index)
+    layouts = sorted(set(rows["layout"].tolist()))
+    scenes = sorted({dataset.schema.scenes[i] for i in set(rows["scene"].tolist())})
+    meta = {"dataset": str(Path(args.dataset).resolve()), "decisions": result.rows, "steps": result.steps,
+            "layouts": len(layouts), "scenes": scenes, "seconds": round(result.seconds, 1),
+            "lr": config.algo.lr, "batch": config.algo.dagger_batch, "seed": args.seed}
+    path = save_offline_actor(learner, args.out, meta)
+    final = sum(result.losses[-50:]) / max(len(result.losses[-50:]), 1)
+    print(json.dumps({"actor": str(path), **meta, "final_loss": round(final, 4),
+                      "skipped_steps": result.skipped_steps}))
+
+
+if __name__ == "__main__":
+    main()

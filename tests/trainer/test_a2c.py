@@ -304,3 +304,28 @@ def test_a_learner_on_another_device_acts_with_a_cpu_copy_of_its_weights(batch):
     learner.update(batch.clone())
     for key, value in cpu_state(learner.actor).items():
         assert torch.equal(learner.acting_actor.state_dict()[key], value), key
+
+
+def test_a_new_run_starts_from_the_initial_actor_and_a_mismatch_is_one_line(tmp_path):
+    """train.init_actor: the actor of a finished run's checkpoint starts a new run (the
+    distillation-then-A2C recipe); another feature set or model size is refused."""
+    first = tmp_path / "first"
+    train(config_for("train.frames=5", "algo.distill_coef=1.0", "algo.a2c_coef=0.0"), first)
+    source = read_checkpoint(first / "checkpoints" / "last.pt")["actor"]
+    config = config_for("train.frames=5", f"train.init_actor={first / 'checkpoints' / 'last.pt'}")
+    torch.manual_seed(123)  # other random initial weights than the first run's
+    run = TrainingRun(config, tmp_path / "second")
+    started = run.learner.actor.state_dict()
+    assert started.keys() == source.keys()
+    for key, value in source.items():
+        assert torch.equal(started[key], value), key
+    fresh = Learner(config_for(), make_env(config).action_spec).actor.state_dict()
+    assert any(not torch.equal(fresh[key], source[key]) for key in source)  # a real change
+    with pytest.raises(CheckpointError, match="graph.features=paper, this run extended"):
+        TrainingRun(config_for(f"train.init_actor={first / 'checkpoints' / 'last.pt'}", "graph.features=extended"),
+                    tmp_path / "third")
+    with pytest.raises(CheckpointError, match="hidden"):
+        TrainingRun(config_for(f"train.init_actor={first / 'checkpoints' / 'last.pt'}", "model.hidden=16"),
+                    tmp_path / "fourth")
+    with pytest.raises(ValueError, match="train.init_actor=.*no such file"):
+        config_for(f"train.init_actor={tmp_path / 'missing.pt'}")

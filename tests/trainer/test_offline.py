@@ -78,3 +78,30 @@ def test_bad_offline_inputs_fail_in_one_line(dataset, tmp_path):
         train_offline(config_for(), empty, steps=1)
     with pytest.raises(ValueError, match="no node feature"):
         train_offline(config_for("graph.features=extended"), dataset, steps=1)
+
+
+def test_the_distill_command_writes_an_actor_file_of_the_chosen_scenes(dataset, tmp_path, capsys):  # noqa: F811
+    import json
+
+    from explore_rl.trainer.offline import main
+
+    out = tmp_path / "distilled" / "actor.pt"
+    main(["--dataset", str(dataset.path), "--out", str(out), "--steps", "3", "--scenes", "street",
+          *FAST_OVERRIDES])
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["decisions"] == len(dataset) and summary["steps"] == 3 and summary["scenes"] == ["street"]
+    _, actor_file = load_actor(out)
+    assert actor_file.meta["decisions"] == len(dataset) and actor_file.meta["kind"].startswith("offline distillation")
+    for bad, message in ((["--scenes", "office"], "--scenes office: the dataset"),
+                         (["--steps", "0"], "--steps must be >= 1"),
+                         (["--dataset", str(tmp_path / "none")], "no dataset there")):
+        arguments = {"--dataset": str(dataset.path), "--out": str(tmp_path / "x.pt"), "--steps": "1"}
+        arguments.update(dict(zip(bad[::2], bad[1::2])))
+        with pytest.raises(SystemExit) as stopped:
+            main([item for pair in arguments.items() for item in pair] + FAST_OVERRIDES)
+        assert stopped.value.code == 2
+        error = capsys.readouterr().err.strip()
+        assert message in error and len(error.splitlines()) == 1
+
+
+FAST_OVERRIDES = ["--set", "scene=street", "slam=model", "model.hidden=32", "model.mlp_hidden=32"]
