@@ -9,7 +9,7 @@ EM, and gap_closed = (learned - random) / (EM - random) with its paired bootstra
 interval, pooled and per layout. The policy's training layouts are refused.
 
     # a policy file (actor file or training checkpoint) on held-out layouts
-    python benchmarks/study_learning.py --policy policies/office_a2c/actor.pt --layouts 2000 2001 \
+    python benchmarks/study_learning.py --policy policies/office_paper/actor.pt --layouts 2000 2001 \
         [--scene office|building|street|garage|file] [--set scene.path=lab.yaml ...] --starts 9 \
         --max-decisions 10 [--workers 2] [--out DIR]
     # training runs: each run's checkpoint (and numbered snapshots, for model selection) on

@@ -37,6 +37,6 @@ def test_nothing_to_learn_and_replay_without_its_weight_are_refused():
 def test_the_shipped_policy_card_config_still_loads():
     from pathlib import Path
 
-    card = Path(__file__).resolve().parents[2] / "policies" / "office_a2c" / "config.yaml"
+    card = Path(__file__).resolve().parents[2] / "policies" / "office_paper" / "config.yaml"
     algo = load_saved_config(card).algo
     assert algo.distill_target == "expected_reward" and algo.distill_coef > 0
