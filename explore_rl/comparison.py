@@ -280,6 +280,50 @@ def matched_travel_markdown(table: Sequence[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def coverage_point(run: dict, target: float) -> dict | None:
+    """The first decision of one trial at which ``explored`` reached ``target``: its travel
+    and map error; None if the trial never got there."""
+    for row in run["rows"]:
+        if row.get("explored", 0.0) >= target:
+            return {"travel_m": row["travel_m"], "map_error_m": row["map_error_m"]}
+    return None
+
+
+def coverage_reached(runs: Sequence[dict], target: float = 0.85) -> list[dict]:
+    """Per scene and policy: how many trials reached ``target`` explored, the mean (and std)
+    travel to get there and the map error at that point over those trials, and the mean
+    decision time over all trials -- the paper's comparison "at the same coverage"."""
+    table = []
+    for scene in sorted({r["scene"] for r in runs}):
+        good = [r for r in runs if r["scene"] == scene and r["status"] != "error"]
+        for policy in policy_order(r["policy"] for r in good):
+            mine = [r for r in good if r["policy"] == policy]
+            points = [p for p in (coverage_point(r, target) for r in mine) if p is not None]
+            travel = np.array([p["travel_m"] for p in points])
+            error = np.array([p["map_error_m"] for p in points])
+            table.append({"scene": scene, "policy": policy, "target": target, "trials": len(mine),
+                          "reached": len(points),
+                          "travel_m": float(travel.mean()) if len(points) else float("nan"),
+                          "travel_m_std": float(travel.std()) if len(points) else float("nan"),
+                          "map_error_m": float(error.mean()) if len(points) else float("nan"),
+                          "map_error_m_std": float(error.std()) if len(points) else float("nan"),
+                          "ms_decide": float(np.mean([r["ms_decide"] for r in mine]))})
+    return table
+
+
+def coverage_markdown(table: Sequence[dict]) -> str:
+    """:func:`coverage_reached` as a Markdown table."""
+    if not table:
+        return ""
+    lines = [f"Travel to {100 * table[0]['target']:.0f} % explored and the map error there (trials that got there):",
+             "", "| scene | policy | reached | travel m | map error m | decision ms |", "|---|---|---|---|---|---|"]
+    for e in table:
+        lines.append(f"| {e['scene']} | {e['policy']} | {e['reached']}/{e['trials']} | {e['travel_m']:.1f} ± "
+                     f"{e['travel_m_std']:.1f} | {e['map_error_m']:.3f} ± {e['map_error_m_std']:.3f} | "
+                     f"{e['ms_decide']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
 # ---------------------------------------------------------------------- plots
 
 
@@ -346,8 +390,10 @@ def write_summary(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Pat
     """``summary.md``, ``summary.json`` and the plots of every scene of ``runs`` into ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    table, matched = summarise(runs), matched_travel(runs)
+    table, matched, coverage = summarise(runs), matched_travel(runs), coverage_reached(runs)
     text = markdown_table(table) + ("\n" + matched_travel_markdown(matched) if matched else "")
+    text += "\n" + coverage_markdown(coverage)
+    (out / "coverage.json").write_text(json.dumps(coverage, indent=1))
     (out / "summary.md").write_text(text)
     (out / "summary.json").write_text(json.dumps(table, indent=1))
     (out / "matched_travel.json").write_text(json.dumps(matched, indent=1))

@@ -122,6 +122,20 @@ def test_the_spread_band_is_interquartile_and_stays_within_the_trials_values():
     plt.close(fig)
 
 
+def test_travel_and_map_error_where_each_trial_first_reached_the_coverage_target():
+    runs = [synthetic_run("em", 0, [0.1, 0.2, 0.3]), synthetic_run("em", 1, [0.1, 0.5]),
+            synthetic_run("nearest", 0, [0.4, 0.6])]
+    for run, explored in zip(runs, ([0.5, 0.86, 0.9], [0.85, 0.9], [0.2, 0.3])):
+        for row, value in zip(run["rows"], explored):
+            row["explored"] = value
+    em, nearest = comparison.coverage_reached(runs, target=0.85)
+    assert (em["policy"], em["reached"], em["trials"]) == ("em", 2, 2)
+    assert em["travel_m"] == pytest.approx((4.0 + 2.0) / 2) and em["map_error_m"] == pytest.approx((0.2 + 0.1) / 2)
+    assert nearest["reached"] == 0 and np.isnan(nearest["travel_m"]) and nearest["ms_decide"] == 10.0
+    text = comparison.coverage_markdown([em, nearest])
+    assert "| street | em | 2/2 | 3.0 ± 1.0 | 0.150 ± 0.050 | 10 |" in text and "85 % explored" in text
+
+
 def test_matched_travel_compares_policies_after_the_reference_policys_mean_travel():
     # em ends at 4 and 8 m (mean 6 m); nearest's trial ends at 4 m and holds its last value
     runs = [synthetic_run("em", 0, [0.1, 0.2]), synthetic_run("em", 1, [0.1, 0.2, 0.3, 0.4]),
