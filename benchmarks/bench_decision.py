@@ -11,7 +11,7 @@ path), short ones into new space do not (the covariance-propagation shortcut). A
 policies see the same state; nearest frontier's time is its ``choose`` alone (the
 state's Dijkstra is shared by every policy). The learned policy's time is its ``choose``:
 action set (the same as EM's), exploration graph, encoding and forward pass, with the
-shipped actor if ``policies/office_paper/actor.pt`` exists, else a randomly initialised
+shipped actor if ``policies/buildings_distill/actor.pt`` exists, else a randomly initialised
 actor of the default model size (the output says which); the forward pass of a
 hidden-1000 actor is timed as well. One torch thread.
 
@@ -21,6 +21,7 @@ hidden-1000 actor is timed as well. One torch thread.
 from __future__ import annotations
 
 import sys
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -36,6 +37,7 @@ import torch  # noqa: E402
 from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix  # noqa: E402
 from explore_rl.graph.config import GraphConfig  # noqa: E402
 from explore_rl.graph.encode import encode  # noqa: E402
+from explore_rl.graph.features import feature_names  # noqa: E402
 from explore_rl.grid import GridSpec  # noqa: E402
 from explore_rl.mapping.config import MappingConfig  # noqa: E402
 from explore_rl.mapping.frontiers import Frontier, frontier_mask  # noqa: E402
@@ -62,15 +64,17 @@ LEARNED_GRAPH = GraphConfig(max_nodes=1024)
 PAPER_MODEL = ModelConfig(hidden=1000, mlp_hidden=0)  # model=gunet_paper
 
 
-def learned_actor() -> tuple[GraphActor, str]:
+def learned_actor() -> tuple[GraphActor, str, str]:
     """The shipped policy if it exists, else a randomly initialised actor of the default
-    model size (``model=gunet``): the decision time does not depend on the weights."""
+    model size (``model=gunet``): the decision time does not depend on the weights. Also
+    the node-feature set it reads (``graph.features``)."""
     if resolve(None).is_file():
-        actor, _ = load_actor(None)
-        return actor, f"trained: {DEFAULT_ACTOR}"
+        actor, actor_file = load_actor(None)
+        return actor, f"trained: {DEFAULT_ACTOR}", actor_file.feature_set
     torch.manual_seed(0)
     config = ModelConfig()
-    return GraphActor(config, 4).eval(), f"random init, default model size (hidden {config.hidden}): no {DEFAULT_ACTOR}"
+    return (GraphActor(config, 4).eval(), f"random init, default model size (hidden {config.hidden}): no {DEFAULT_ACTOR}",
+            "paper")
 
 
 @dataclass
@@ -206,7 +210,7 @@ def make_state(n_poses: int, n_candidates: int, setup: BenchSetup) -> Exploratio
 
 
 def measure(n_poses: int, n_candidates: int, setup: BenchSetup, actor: GraphActor,
-            paper_actor: GraphActor) -> dict:
+            paper_actor: GraphActor, graph: GraphConfig = LEARNED_GRAPH) -> dict:
     """Milliseconds per decision of EM, the learned policy and nearest frontier on one state.
 
     The learned policy's time is its whole ``choose``: the action set (the same as EM's),
@@ -218,13 +222,13 @@ def measure(n_poses: int, n_candidates: int, setup: BenchSetup, actor: GraphActo
     planning = PlanningConfig(actions=ActionSetConfig(kind="nearest", max_frontiers=n_candidates))
     em = EMPlanner(PolicyConfig(name="em"), planning)
     nearest = NearestFrontier()
-    learned = LearnedPolicy(PolicyConfig(name="learned"), planning, graph=LEARNED_GRAPH, actor=actor)
+    learned = LearnedPolicy(PolicyConfig(name="learned"), planning, graph=graph, actor=actor)
 
     ms_em = 1e3 * time_call(lambda: em.choose(state), setup.repeats)
     ms_nearest = 1e3 * time_call(lambda: nearest.choose(state), 1000)
     ms_learned = 1e3 * time_call(lambda: learned.choose(state), max(setup.repeats, 3))
     parts = dict(learned.last_ms)
-    encoded = encode(learned.last_graph, LEARNED_GRAPH.max_nodes)
+    encoded = encode(learned.last_graph, graph.max_nodes)
     ms_paper = 1e3 * time_call(lambda: choose_row(paper_actor, encoded), max(setup.repeats, 3))
     evaluation = em.last_evaluation
     return {"poses": n_poses, "candidates": len(state.candidates), "ms_em": ms_em,
@@ -274,11 +278,12 @@ def main() -> None:
     candidate_counts = [2, 5, 10]
     if args.smoke:  # four small states: enough for the growth fit, no figure to quote
         setup, pose_counts, candidate_counts = BenchSetup(repeats=1), [30, 50], [2, 5]
-    actor, actor_source = learned_actor()
+    actor, actor_source, features = learned_actor()
+    graph = dataclasses.replace(LEARNED_GRAPH, features=features)
     torch.manual_seed(1)
-    paper_actor = GraphActor(PAPER_MODEL, 4).eval()
+    paper_actor = GraphActor(PAPER_MODEL, len(feature_names(features))).eval()
     print(f"learned policy: {actor_source}; forward pass also timed at hidden 1000 (random init)")
-    rows = [measure(n, c, setup, actor, paper_actor) for n in pose_counts for c in candidate_counts]
+    rows = [measure(n, c, setup, actor, paper_actor, graph) for n in pose_counts for c in candidate_counts]
     print_table(rows)
     summary = growth(rows)
     print("growth:", summary)
@@ -289,6 +294,7 @@ def main() -> None:
           "ms_em": [round(r["ms_em"], 2) for r in rows],
           "ms_nearest": [round(r["ms_nearest"], 5) for r in rows],
           **rounded, "graph_nodes": [r["graph_nodes"] for r in rows], "learned_actor": actor_source,
+          "features": features,
           "loop_candidates": [r["loops"] for r in rows],
           "growth": summary, "machine": machine()})
 

@@ -34,17 +34,17 @@ def test_pyproject_lists_every_package_and_maps_the_shipped_data():
     packages = {".".join(p.relative_to(ROOT).parts[:-1]) for p in (ROOT / "explore_rl").rglob("__init__.py")}
     assert set(setuptools["packages"]) == packages | {"explore_rl.conf", "explore_rl.policies"}
     assert setuptools["package-dir"] == {"explore_rl.conf": "conf", "explore_rl.policies": "policies"}
-    assert (ROOT / "conf" / "config.yaml").is_file() and (ROOT / "policies" / "office_paper" / "actor.pt").is_file()
+    assert (ROOT / "conf" / "config.yaml").is_file() and (ROOT / "policies" / "buildings_distill" / "actor.pt").is_file()
 
 
 def test_shipped_data_is_found_inside_the_package_first_then_beside_it(tmp_path, monkeypatch):
     assert resources.conf_dir() == ROOT / "conf"  # the source tree (editable install)
     package = tmp_path / "site-packages" / "explore_rl"
     (package / "conf").mkdir(parents=True)
-    (package / "policies" / "office_paper").mkdir(parents=True)
+    (package / "policies" / "buildings_distill").mkdir(parents=True)
     monkeypatch.setattr(resources, "PACKAGE_DIR", package)
     assert resources.conf_dir() == package / "conf"  # a wheel: its package data
-    assert resources.shipped_file("policies/office_paper/actor.pt") == package / "policies" / "office_paper" / "actor.pt"
+    assert resources.shipped_file("policies/buildings_distill/actor.pt") == package / "policies" / "buildings_distill" / "actor.pt"
     shutil.rmtree(package / "conf")
     with pytest.raises(FileNotFoundError, match="conf/ folder is missing"):
         resources.conf_dir()
