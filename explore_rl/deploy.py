@@ -69,7 +69,7 @@ def uncertainty(cov: np.ndarray | None, trace: np.ndarray | None, count: int, na
 
 
 @dataclass
-class Decision:
+class FrontierChoice:
     """A choice and what it was made from."""
 
     frontier: int  # index into the caller's frontier arrays
@@ -132,7 +132,7 @@ class DeployedPolicy:
                              f"got {extra.shape}")
         return extra
 
-    def decide(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> Decision:
+    def decide(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> FrontierChoice:
         """The most probable frontier (greedy) and the policy's distribution."""
         graph = self.graph(pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs)
         encoded = encode(graph, max(self.max_nodes, graph.frontier_nodes.size + 1))
@@ -146,7 +146,7 @@ class DeployedPolicy:
         probabilities = np.zeros(len(graph.frontier_nodes))
         probabilities[frontier_of_row] = probabilities_rows
         best = greedy_row(logits, torch.from_numpy(encoded.action_mask[:n]))
-        return Decision(int(graph.candidate[encoded.nodes[best]]), probabilities, graph, encoded)
+        return FrontierChoice(int(graph.candidate[encoded.nodes[best]]), probabilities, graph, encoded)
 
     def choose(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> int:
         """Index into ``frontier_xy`` of the frontier to visit next (keyword arguments as

@@ -54,10 +54,6 @@ class ExplorationGraph:
         return len(self.xy)
 
     @property
-    def identity(self) -> np.ndarray:
-        return self.features[:, 3]
-
-    @property
     def frontier_nodes(self) -> np.ndarray:
         """Node indices of the frontiers (the actions), nearest first."""
         return np.flatnonzero(self.candidate >= 0)
@@ -66,13 +62,6 @@ class ExplorationGraph:
     def nearest_node(self) -> int:
         """Node of the nearest frontier (the first frontier node)."""
         return int(self.frontier_nodes[0])
-
-    def node_of_candidate(self, candidate: int) -> int:
-        """Node index of ``state.candidates[candidate]``; ValueError if it is not an action."""
-        nodes = np.flatnonzero(self.candidate == candidate)
-        if len(nodes) == 0:
-            raise ValueError(f"candidate {candidate} is not a frontier node of this graph")
-        return int(nodes[0])
 
     def adjacency(self) -> np.ndarray:
         """Dense symmetric ``(n, n)`` weighted adjacency."""
