@@ -25,7 +25,7 @@ from common import emit, machine  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.trainer.a2c import Learner  # noqa: E402
-from explore_rl.trainer.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
+from explore_rl.models.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
 from explore_rl.trainer.imitation import make_label_buffer, pad_graphs  # noqa: E402
 
 BATCH = 16

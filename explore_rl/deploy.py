@@ -45,7 +45,7 @@ from explore_rl.graph.features import FRONTIER_EXTRAS
 from explore_rl.models.actor_critic import greedy_row
 from explore_rl.models.actor_file import ActorFile, check_output_file, export_actor_file, load_actor
 from explore_rl.models.export import ExportedActor, export_actor
-from explore_rl.trainer.checkpoint import CheckpointError
+from explore_rl.models.checkpoint import CheckpointError
 
 Logits = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]  # x[N,F], adj[N,N], mask[N] -> [N]
 

@@ -10,7 +10,7 @@ import torch
 from explore_rl.config import Config, load_config
 from explore_rl.models.actor_file import export_actor_file
 from explore_rl.trainer.a2c import Learner, RunState
-from explore_rl.trainer.checkpoint import Checkpoint, save_checkpoint
+from explore_rl.models.checkpoint import Checkpoint, save_checkpoint
 
 TINY_MODEL = ["model.hidden=16", "model.mlp_hidden=16"]
 

@@ -15,7 +15,7 @@ from explore_rl.config import load_config
 from explore_rl.deploy import load_policy, main
 from explore_rl.graph.exploration_graph import factor_edges
 from explore_rl.planning.em import world_covariances
-from explore_rl.trainer.checkpoint import CheckpointError
+from explore_rl.models.checkpoint import CheckpointError
 from tests.policy_files import TINY_MODEL, actor_file, env_decisions
 
 FAST = ["scene=office", "slam=model", "planning.actions.max_frontiers=4", *TINY_MODEL]
@@ -77,7 +77,8 @@ k = policy.choose(pose_xy=np.c_[np.arange(6.0) * 0.5, np.zeros(6)], pose_uncerta
                   pose_edges=[[i, i + 1] for i in range(5)], frontier_xy=[[3.5, 0.2], [0.0, 1.0]],
                   frontier_uncertainty=[0.08, 0.05], frontier_revisits=[[], [0, 1]])
 print(json.dumps({"choice": k, "loaded": sorted(m for m in ("mujoco", "gtsam", "kiss_icp", "torchrl", "hydra")
-                                                 if m in sys.modules)}))
+                                                 if m in sys.modules),
+                  "trainer": sorted(m for m in sys.modules if m.startswith("explore_rl.trainer"))}))
 """
 
 
@@ -88,6 +89,7 @@ def test_deploy_imports_no_simulator_slam_or_torchrl(files):
     result = json.loads(proc.stdout.strip().splitlines()[-1])
     assert result["choice"] in (0, 1)
     assert result["loaded"] == []
+    assert result["trainer"] == []  # checkpoint I/O lives in explore_rl.models: no upward import
 
 
 def test_bad_arrays_are_named(files):

@@ -1,7 +1,7 @@
 """Actor files: the trained policy alone (weights + model config + a format tag), for
 evaluation and deployment.
 
-A training checkpoint (explore_rl/trainer/checkpoint.py) also holds the critic, the
+A training checkpoint (explore_rl/models/checkpoint.py) also holds the critic, the
 optimiser and the run's counters -- three times the size, and tied to the trainer. An
 actor file holds what choosing a frontier needs:
 
@@ -34,8 +34,8 @@ from explore_rl.graph.features import feature_names, feature_set_of
 from explore_rl.models.actor_critic import GraphActor
 from explore_rl.models.config import ModelConfig
 from explore_rl.resources import shipped_file
-from explore_rl.trainer.checkpoint import FORMAT as TRAINING_FORMAT
-from explore_rl.trainer.checkpoint import CheckpointError, check_model, check_weights, read_checkpoint
+from explore_rl.models.checkpoint import FORMAT as TRAINING_FORMAT
+from explore_rl.models.checkpoint import CheckpointError, check_model, check_weights, read_checkpoint
 
 ACTOR_FORMAT = "explore_rl.actor/1"
 DEFAULT_ACTOR = "policies/buildings_distill/actor.pt"  # the shipped policy (explore_rl/resources.py finds it)

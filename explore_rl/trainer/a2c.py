@@ -45,7 +45,7 @@ from explore_rl.envs.factory import EnvFactory, make_env
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
-from explore_rl.trainer.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
+from explore_rl.models.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
                                            save_checkpoint)
 from explore_rl.trainer.episodes import EpisodeTracker
 from explore_rl.trainer.imitation import DatasetLabels, compact_decisions, make_labels

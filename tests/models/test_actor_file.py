@@ -17,7 +17,7 @@ from explore_rl.models.actor_file import (
     save_actor_file,
 )
 from explore_rl.models.config import ModelConfig
-from explore_rl.trainer.checkpoint import CheckpointError
+from explore_rl.models.checkpoint import CheckpointError
 from tests.policy_files import TINY_MODEL, actor_file, training_checkpoint
 
 

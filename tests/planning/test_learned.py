@@ -12,7 +12,7 @@ from explore_rl.planning.learned import LearnedPolicy, frontier_covariances, gra
 from explore_rl.planning.policies import PolicyConfig, make_policy
 from explore_rl.planning.virtual_map import VirtualMap
 from explore_rl.runner import Explorer
-from explore_rl.trainer.checkpoint import CheckpointError
+from explore_rl.models.checkpoint import CheckpointError
 from tests.policy_files import TINY_MODEL, actor_file, env_decisions
 
 FAST = ["scene=office", "slam=model", "planning.actions.max_frontiers=4", "explore.progress_bar=false", *TINY_MODEL]

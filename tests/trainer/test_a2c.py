@@ -13,7 +13,7 @@ from explore_rl.config import load_config
 from explore_rl.envs import make_env
 from explore_rl.models.actor_critic import Dropout
 from explore_rl.trainer.a2c import Learner, TrainingRun, make_collector, train
-from explore_rl.trainer.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
+from explore_rl.models.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
 
 # short, cheap episodes: a few frontiers per decision, a small travel budget
 FAST = ["scene=street", "slam=model", "planning.actions.max_frontiers=3", "explore.travel_budget=30",
