@@ -109,3 +109,16 @@ def test_importing_the_config_loads_no_runtime_code():
         "explore_rl", "config", "checks", "resources", "robot_config", "run_config",
         "envs", "graph", "mapping", "models", "planning", "scene", "sensors", "slam", "trainer")]
     assert runtime == [], runtime
+
+
+@pytest.mark.parametrize("module, higher", [
+    ("explore_rl.graph.exploration_graph", ("explore_rl.planning", "explore_rl.models", "explore_rl.envs",
+                                            "explore_rl.trainer")),
+    ("explore_rl.models.actor_file", ("explore_rl.planning", "explore_rl.envs", "explore_rl.trainer")),
+])
+def test_lower_layers_import_no_higher_ones(module, higher):
+    """A fresh process: the graph layer needs nothing from planning at run time, and actor
+    files (models) nothing from the trainer (checkpoint I/O lives in explore_rl.models)."""
+    code = f"import sys, {module}\nprint(' '.join(sorted(m for m in sys.modules if m.startswith({higher!r}))))\n"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert loaded == [], loaded

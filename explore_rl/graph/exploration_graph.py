@@ -27,9 +27,9 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from explore_rl.graph.features import PAPER, frontier_extras
-from explore_rl.planning.actions import Action
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # annotations only: the graph layer imports nothing from planning at run time
+    from explore_rl.planning.actions import Action
     from explore_rl.planning.em import DecisionContext
     from explore_rl.state import ExplorationState
 
