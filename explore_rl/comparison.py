@@ -55,7 +55,7 @@ SUMMARY_COLUMNS = (
     ("blocked_decisions", "blocked", 1.0, "{:.1f}"),
     ("min_clearance_m", "min clearance m", 1.0, "{:.3f}"),
 )
-EXTRA_KEYS = ("ate_m", "decisions", "safety_interventions")
+EXTRA_KEYS = ("ate_m", "decisions", "safety_interventions", "capped_paths")
 
 
 # ---------------------------------------------------------------------- trials
@@ -115,7 +115,8 @@ def run_trial(trial: Trial) -> dict:
     last = rows[-1] if rows else {}
     travel = float(explorer.robot.travelled)
     finals = {key: last.get(key, 0.0) for key in ("explored", "map_error_m", "volume_m3", "loop_closures", "ate_m",
-                                                  "contacts", "blocked_decisions", "safety_interventions")}
+                                                  "contacts", "blocked_decisions", "safety_interventions",
+                                                  "capped_paths")}
     finals["min_clearance_m"] = float(last.get("min_clearance_m", float("nan")))
     return {**base, "status": result.status.value, "error": None, "decisions": len(rows), "travel_m": travel,
             **finals, "ms_decide": float(np.mean([r["ms_decide"] for r in rows])) if rows else float("nan"),

@@ -69,6 +69,8 @@ class DecisionRecord:
     min_clearance_m: float = float("inf")
     blocked_decisions: int = 0
     safety_interventions: int = 0
+    # paths Robot.follow ended at its step cap (robot.path_step_factor): each is also blocked
+    capped_paths: int = 0
     # time in the local safety layer during this decision's drive (ring casts included)
     ms_safety: float = 0.0
 
@@ -257,6 +259,7 @@ class Explorer:
             contacts=self.robot.contacts, min_clearance_m=self.robot.min_clearance,
             blocked_decisions=blocked + (path_status is PathStatus.BLOCKED),
             safety_interventions=0 if local is None else local.interventions, ms_safety=ms_safety,
+            capped_paths=self.robot.capped_paths,
         )
 
     def run(self, on_decision=None) -> ExplorationResult:

@@ -63,6 +63,18 @@ def test_decision_records_are_logged():
     assert all(0 <= r.explored <= 1 for r in result.records)
 
 
+def test_paths_ended_by_the_step_cap_are_counted_in_the_records():
+    """robot.path_step_factor so small that no path can finish: every drive is capped,
+    counted as such and as blocked, and the run still ends cleanly."""
+    config = load_config("scene=street", "explore.max_decisions=2", "explore.progress_bar=false",
+                         "robot.path_step_factor=0.05", "robot.path_step_slack=0")
+    result = Explorer(config).run()
+    last = result.records[-1]
+    assert last.capped_paths >= 1 and last.blocked_decisions >= last.capped_paths
+    normal = Explorer(load_config("scene=street", "explore.max_decisions=2", "explore.progress_bar=false")).run()
+    assert normal.records[-1].capped_paths == 0
+
+
 def test_random_policy_is_seeded():
     runs = []
     for _ in range(2):
