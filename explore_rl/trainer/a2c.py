@@ -135,8 +135,7 @@ class Learner:
                                   f"set graph.features={actor_file.feature_set}")
         graph_actor = build_actor(path, actor_file, self.config.model)  # model and weights checked
         self.actor.load_state_dict({TRAINING_PREFIX + key: value for key, value in graph_actor.state_dict().items()})
-        if self.acting_actor is not self.actor:
-            self.acting_actor.load_state_dict(self.actor.state_dict())
+        self.sync_acting_actor()
         log.info("initial actor weights from %s", path)
 
     def set_training(self, on: bool) -> None:
@@ -183,9 +182,13 @@ class Learner:
             self.optimizer.zero_grad()
             return None, f"gradient norm is {grad_norm.item()}"
         self.optimizer.step()
+        self.sync_acting_actor()
+        return grad_norm, ""
+
+    def sync_acting_actor(self) -> None:
+        """The collectors' CPU copy takes the learner's weights (nothing to do on a CPU learner)."""
         if self.acting_actor is not self.actor:
             self.acting_actor.load_state_dict(cpu_state(self.actor))
-        return grad_norm, ""
 
     def replay(self, batch: TensorDictBase) -> float | None:
         """DAgger: keep ``batch``'s EM-labelled decisions (states the policy visited), then
@@ -327,7 +330,7 @@ class TrainingRun:
         check_weights(path, "actor", checkpoint.actor, self.learner.actor)
         check_weights(path, "critic", checkpoint.critic, self.learner.critic)
         self.learner.actor.load_state_dict(checkpoint.actor)
-        self.learner.acting_actor.load_state_dict(checkpoint.actor)
+        self.learner.sync_acting_actor()
         self.learner.critic.load_state_dict(checkpoint.critic)
         self.learner.optimizer.load_state_dict(checkpoint.optimizer)
         if checkpoint.label_buffer is not None:
