@@ -13,7 +13,7 @@ Office, ``slam=model``, one process, the same seed, starts and random valid acti
   decision the time in observe (escape, frontiers, Dijkstra), context (action set, pose
   marginals, virtual map: what the graph features and EM share), graph (graph +
   padding), reward (EM on every frontier node) and drive (path with SLAM);
-* the env following EM's choice (``em_action``) and the plain runner with ``policy=em``
+* the env following EM's choice (``("expert", "em_action")``) and the plain runner with ``policy=em``
   (the baseline): both make the same decisions, so the difference is the environment's
   own overhead (fast backend).
 
@@ -43,6 +43,7 @@ from common import emit, machine  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.envs import make_env  # noqa: E402
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION  # noqa: E402
 from explore_rl.planning.em import EMPlanner  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
 
@@ -106,9 +107,9 @@ def run_lockstep(configs: dict, episodes: int, max_decisions: int, follow_em: bo
             action = None if follow_em else envs[first].rand_action(tds[first].clone())["action"]
             for name, env in envs.items():
                 td = tds[name]
-                em_actions[name].append(int(td["em_action"]))
-                rewards[name].append(td["action_rewards"].numpy().copy())
-                td = td.set("action", td["em_action"] if follow_em else action.clone())
+                em_actions[name].append(int(td[EM_ACTION]))
+                rewards[name].append(td[ACTION_REWARDS].numpy().copy())
+                td = td.set("action", td[EM_ACTION] if follow_em else action.clone())
                 start = time.perf_counter()
                 tds[name] = env.step(td)["next"]
                 wall[name] += time.perf_counter() - start

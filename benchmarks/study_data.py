@@ -100,6 +100,7 @@ def offline_gaps(learner, dataset, index, columns) -> float:
     """(E_policy - E_random) / (E_EM - E_random) of the Algorithm 1 reward over ``index``."""
     import torch
 
+    from explore_rl.envs.keys import ACTION_REWARDS
     from explore_rl.trainer.dataset import padded_batch
 
     learner.set_training(False)
@@ -107,7 +108,7 @@ def offline_gaps(learner, dataset, index, columns) -> float:
     with torch.no_grad():
         for chunk in index.split(64):
             batch = padded_batch(dataset.rows(chunk), columns)
-            rewards, mask = batch["action_rewards"], batch["action_mask"]
+            rewards, mask = batch[ACTION_REWARDS], batch["action_mask"]
             probs = learner.actor.get_dist(batch).probs
             policy.append((probs * rewards).sum(-1))
             uniform.append((rewards * mask).sum(-1) / mask.sum(-1))

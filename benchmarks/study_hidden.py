@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
+from explore_rl.envs.keys import ACTION_REWARDS  # noqa: E402
 from explore_rl.trainer.a2c import Learner  # noqa: E402
 from explore_rl.models.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
 from explore_rl.trainer.imitation import make_label_buffer, pad_graphs  # noqa: E402
@@ -45,7 +46,7 @@ def kept_decisions(run_dir: Path) -> list:
 
 
 def reference_rewards(batch) -> dict[str, float]:
-    rewards, mask = batch["action_rewards"], batch["action_mask"]
+    rewards, mask = batch[ACTION_REWARDS], batch["action_mask"]
     masked = torch.where(mask, rewards, torch.tensor(-torch.inf))
     return {"random": float(((rewards * mask).sum(-1) / mask.sum(-1)).mean()),
             "best": float(masked.max(-1).values.mean())}
@@ -55,7 +56,7 @@ def greedy_reward(learner: Learner, batch) -> float:
     learner.set_training(False)
     with torch.no_grad():
         pick = learner.actor.get_dist(batch).probs.argmax(-1)
-    return float(batch["action_rewards"].gather(1, pick[:, None]).mean())
+    return float(batch[ACTION_REWARDS].gather(1, pick[:, None]).mean())
 
 
 def train_and_score(hidden: int, train: list, test_batch, steps: int, lr: float, extra: list[str]) -> dict:

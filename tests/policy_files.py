@@ -8,6 +8,7 @@ from pathlib import Path
 import torch
 
 from explore_rl.config import Config, load_config
+from explore_rl.envs.keys import NEAREST_ACTION
 from explore_rl.models.actor_file import export_actor_file
 from explore_rl.trainer.a2c import Learner, RunState
 from explore_rl.models.checkpoint import Checkpoint, save_checkpoint
@@ -48,6 +49,6 @@ def env_decisions(config: Config, learner: Learner, steps: int):
         with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
             row = int(learner.actor(td.clone())["action"])
         yield decision, decision.actions[decision.action_of_row(row)].candidate
-        td = env.step(td.set("action", td["nearest_action"]))["next"]
+        td = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
         if bool(td["done"]):
             return

@@ -8,18 +8,25 @@ the same decision (min-max normalised, anchored on the nearest frontier). Then t
 drives the path with SLAM (``Explorer.act``), the same exploration step the plain runner
 uses.
 
-Each decision is evaluated when it is observed, so the observation also carries EM's
-choice (``em_action``), the Algorithm 1 reward every frontier node would have earned
-(``action_rewards``, 0 on other rows and when EM failed) and the nearest frontier
-(``nearest_action``) of that state -- the labels an imitation term needs, aligned with the
-action taken there.
+Each decision is evaluated when it is observed, so the observation also carries, under
+the ``expert`` sub-tensordict (explore_rl/envs/keys.py, out of every policy's reach), EM's
+choice (``("expert", "em_action")``), the Algorithm 1 reward every frontier node would
+have earned (``("expert", "action_rewards")``, 0 on other rows and when EM failed) and the
+nearest frontier (``("expert", "nearest_action")``) of that state -- the labels a
+distillation term needs, aligned with the action taken there.
+
+The action spec's mask follows ``action_mask`` (``Categorical.update_mask`` at every
+reset and step), so TorchRL's own random actions (``env.rand_action``, ``env.rollout``
+without a policy, ``RandomPolicy`` in a collector) pick frontier nodes only. A final
+observation offers no action; a categorical spec cannot sample from an all-False mask,
+so there the mask is lifted (stepping a finished episode is an error anyway).
 
 An episode can be restored (:meth:`ExplorationEnv.restore`): the next reset re-runs
 episode ``k`` from its seed and replays the recorded actions, which reproduces the state
 exactly (everything in it is seeded). The trainer resumes a killed run this way.
 
 Nothing inside a step ends a training run: an EM error gives reward 0 for that step (and
-``em_action = -1``); an error while driving or observing ends the episode as truncated
+an EM choice of -1); an error while driving or observing ends the episode as truncated
 with ``failed = True``. Both are logged and counted in :attr:`ExplorationEnv.failures`.
 """
 
@@ -37,6 +44,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from explore_rl.config import Config
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, EXPERT, NEAREST_ACTION
 from explore_rl.graph.encode import EncodedGraph, encode
 from explore_rl.graph.exploration_graph import ExplorationGraph, graph_from_state
 from explore_rl.graph.features import feature_names
@@ -119,9 +127,11 @@ class ExplorationEnv(EnvBase):
             adj=Unbounded((n, n), dtype=torch.float32, device=device),
             node_mask=Categorical(shape=(n,), **flag),
             action_mask=Categorical(shape=(n,), **flag),
-            em_action=Bounded(-1, n - 1, shape=(), dtype=torch.int64, device=device),
-            action_rewards=Bounded(-1.0, 1.0, shape=(n,), dtype=torch.float32, device=device),
-            nearest_action=Bounded(0, n - 1, shape=(), dtype=torch.int64, device=device),
+            **{EXPERT: Composite({
+                EM_ACTION[1]: Bounded(-1, n - 1, shape=(), dtype=torch.int64, device=device),
+                ACTION_REWARDS[1]: Bounded(-1.0, 1.0, shape=(n,), dtype=torch.float32, device=device),
+                NEAREST_ACTION[1]: Bounded(0, n - 1, shape=(), dtype=torch.int64, device=device),
+            }, device=device)},
             **{key: Unbounded((), dtype=dtype, device=device) for key, dtype in INFO_KEYS},
             device=device,
         )
@@ -276,17 +286,6 @@ class ExplorationEnv(EnvBase):
                              f"{np.flatnonzero(mask).tolist()}")
         return decision.action_of_row(action)
 
-    def rand_action(self, tensordict: TensorDictBase | None = None) -> TensorDictBase:
-        """A uniformly random *valid* action (``action_mask``), for random rollouts."""
-        if tensordict is None:
-            tensordict = TensorDict(batch_size=self.batch_size, device=self.device)
-        spec = self.action_spec.clone()
-        mask = tensordict.get("action_mask", None)
-        if mask is not None and bool(mask.any()):
-            spec.update_mask(mask)
-        tensordict.set(self.action_key, spec.rand())
-        return tensordict
-
     # ------------------------------------------------------------------ decisions
 
     def observe(self) -> Decision | None:
@@ -357,22 +356,32 @@ class ExplorationEnv(EnvBase):
                     episode=self.episode - 1, layout=self.layout_of_episode)
 
     def observation(self, decision: Decision, info: dict, no_actions: bool = False) -> TensorDict:
-        """The observation keys of ``decision``. ``no_actions``: a final observation (every
-        action masked; nothing acts on it; at a truncation the critic reads its graph)."""
+        """The observation keys of ``decision``, and the action spec's mask set to its
+        ``action_mask``. ``no_actions``: a final observation (every action masked; nothing
+        acts on it; at a truncation the critic reads its graph)."""
         encoded = decision.encoded
-        action_mask = np.zeros_like(encoded.action_mask) if no_actions else encoded.action_mask
+        action_mask = torch.from_numpy(np.zeros_like(encoded.action_mask) if no_actions else encoded.action_mask)
+        self.mask_actions(action_mask)
         em_action = -1 if decision.em_choice < 0 else decision.action_row(decision.em_choice)
         values = {
             "x": torch.from_numpy(encoded.x),
             "adj": torch.from_numpy(encoded.adj),
             "node_mask": torch.from_numpy(encoded.node_mask),
-            "action_mask": torch.from_numpy(action_mask),
-            "em_action": torch.tensor(em_action, dtype=torch.int64),
-            "action_rewards": torch.from_numpy(self.action_rewards(decision)),
-            "nearest_action": torch.tensor(decision.action_row(0), dtype=torch.int64),
+            "action_mask": action_mask,
+            EXPERT: {
+                EM_ACTION[1]: torch.tensor(em_action, dtype=torch.int64),
+                ACTION_REWARDS[1]: torch.from_numpy(self.action_rewards(decision)),
+                NEAREST_ACTION[1]: torch.tensor(decision.action_row(0), dtype=torch.int64),
+            },
         }
         values.update({key: torch.tensor(info[key], dtype=dtype) for key, dtype in INFO_KEYS})
         return TensorDict(values, batch_size=())
+
+    def mask_actions(self, action_mask: torch.Tensor) -> None:
+        """Random actions drawn from the action spec pick ``action_mask`` rows. An all-False
+        mask (a final observation) cannot be sampled from (``torch.multinomial`` raises), so
+        it lifts the mask instead: nothing may act there, and ``step`` would refuse."""
+        self.action_spec.update_mask(action_mask.to(self.device, copy=True) if bool(action_mask.any()) else None)
 
     def action_rewards(self, decision: Decision) -> np.ndarray:
         """``(N,)``: each frontier row's Algorithm 1 reward; 0 elsewhere or if EM failed."""

@@ -139,6 +139,29 @@ def make_actor(config: ModelConfig, n_features: int, action_spec: TensorSpec | N
                               distribution_class=MaskedCategorical, return_log_prob=return_log_prob)
 
 
+class UniformLogits(nn.Module):
+    """Logit 0 for every node: with the mask, a uniform choice among the frontier rows."""
+
+    def forward(self, action_mask: Tensor) -> Tensor:
+        return torch.zeros(action_mask.shape, dtype=torch.float32, device=action_mask.device)
+
+
+def make_random_actor() -> ProbabilisticActor:
+    """A uniformly random *frontier* as a TorchRL actor: reads ``action_mask`` from each
+    tensordict, so it stays valid in any collector and in spawned workers (it pickles).
+    TorchRL's ``RandomPolicy`` samples a clone of the action spec taken when it is built,
+    so it cannot follow a mask that changes every decision (the env's ``update_mask``
+    reaches ``env.rand_action`` and ``env.rollout`` without a policy, not that clone).
+    Like every masked policy here, it is never asked to act on a final observation (all
+    actions masked): TorchRL's rollouts and collectors reset a finished env first."""
+    from tensordict.nn import InteractionType, TensorDictModule
+    from torchrl.modules import MaskedCategorical, ProbabilisticActor
+
+    module = TensorDictModule(UniformLogits(), in_keys=[ACTION_MASK_KEY], out_keys=["logits"])
+    return ProbabilisticActor(module, in_keys={"logits": "logits", "mask": ACTION_MASK_KEY}, out_keys=["action"],
+                              distribution_class=MaskedCategorical, default_interaction_type=InteractionType.RANDOM)
+
+
 def make_critic(config: ModelConfig, n_features: int) -> ValueOperator:
     """The value function as a TorchRL ``ValueOperator`` writing ``state_value``."""
     from torchrl.modules import ValueOperator

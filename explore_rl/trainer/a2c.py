@@ -42,6 +42,7 @@ from torchrl.objectives import A2CLoss, ValueEstimators
 
 from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
@@ -226,13 +227,13 @@ class Learner:
         Algorithm 1 reward over *every* frontier node (the env evaluates them all): a
         one-step, full-information objective with no sampling noise and no credit for
         EM's exact tie-breaks; ``em_choice`` is the cross-entropy towards EM's choice."""
-        labels = batch["em_action"]
+        labels = batch[EM_ACTION]
         known = labels >= 0
         if self.config.algo.distill_coef == 0 or not known.any():
             return torch.zeros(())
         dist = self.actor.get_dist(batch)
         if self.config.algo.distill_target == "expected_reward":
-            expected = (dist.probs * batch["action_rewards"]).sum(-1)
+            expected = (dist.probs * batch[ACTION_REWARDS]).sum(-1)
             return -expected[known].mean()
         return -dist.log_prob(labels.clamp_min(0))[known].mean()
 

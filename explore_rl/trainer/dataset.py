@@ -1,17 +1,20 @@
 """EM-scored decisions on disk: a TorchRL replay buffer over ``LazyMemmapStorage``.
 
 Every decision the env observes carries EM's evaluation of every frontier node
-(``action_rewards``, Algorithm 1) and EM's choice (``em_action``). Kept on disk, those
-labelled states can be collected by many workers, grow across runs, and train a policy
-offline (explore_rl/trainer/offline.py) or feed DAgger replay (``train.dataset=PATH``).
+(``("expert", "action_rewards")``, Algorithm 1) and EM's choice (``("expert", "em_action")``).
+Kept on disk, those labelled states can be collected by many workers, grow across runs,
+and train a policy offline (explore_rl/trainer/offline.py) or feed DAgger replay (``train.dataset=PATH``).
 
 A memory-mapped storage needs rows of one fixed size, so a decision is stored *compact
 but fixed*: ``x`` padded to ``graph.max_nodes`` rows (float32), the upper-triangle edges
 as a list padded to ``max_edges`` with their count and weights (a padded ``adj`` would be
 a megabyte per decision), the node count, ``action_mask``, ``action_rewards``,
 ``em_action`` and metadata (``layout``, ``episode``, ``scene``: an index into the
-dataset's scene names). :func:`padded_batch` rebuilds the padded batch the actor reads,
-as wide as the largest graph sampled (like ``imitation.pad_graphs``).
+dataset's scene names). The two label columns keep those flat names on disk (format
+``explore_rl.decisions/1``, unchanged since datasets were first written, so every dataset
+still loads); :func:`padded_batch` rebuilds the padded batch the actor reads, as wide as
+the largest graph sampled, with the labels under ``("expert", ...)`` as the env returns
+them (like ``imitation.pad_graphs``).
 
 A dataset is a folder::
 
@@ -35,6 +38,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.data import LazyMemmapStorage, ReplayBuffer
 
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, EXPERT
 from explore_rl.trainer.config import DATASET_SCHEMA_FILE as SCHEMA_FILE
 from explore_rl.trainer.config import check_dataset_path
 
@@ -110,8 +114,8 @@ def fixed_rows(decisions: list[TensorDictBase], schema: DatasetSchema, scene: st
 
 def padded_batch(rows: TensorDictBase, columns: list[int] | None = None) -> TensorDict:
     """The padded batch ``[B]`` (``x``, symmetric ``adj``, ``node_mask``, ``action_mask``,
-    ``action_rewards``, ``em_action``) of fixed-size rows, as wide as the largest graph;
-    ``columns``: the node-feature columns to keep (e.g. the paper's four of an extended set)."""
+    ``("expert", "action_rewards")``, ``("expert", "em_action")``) of fixed-size rows, as
+    wide as the largest graph; ``columns``: the node-feature columns to keep (e.g. the paper's four of an extended set)."""
     count = rows.shape[0]
     width = int(rows["n_nodes"].max()) if count else 1
     x = rows["x"][:, :width].to(torch.float32)
@@ -127,8 +131,8 @@ def padded_batch(rows: TensorDictBase, columns: list[int] | None = None) -> Tens
     adj[batch_index, j, i] = weights
     return TensorDict({"x": x.contiguous(), "adj": adj, "node_mask": node_mask,
                        "action_mask": rows["action_mask"][:, :width].clone(),
-                       "action_rewards": rows["action_rewards"][:, :width].to(torch.float32),
-                       "em_action": rows["em_action"].clone()}, batch_size=[count])
+                       EXPERT: {ACTION_REWARDS[1]: rows["action_rewards"][:, :width].to(torch.float32),
+                                EM_ACTION[1]: rows["em_action"].clone()}}, batch_size=[count])
 
 
 # ---------------------------------------------------------------------- the dataset

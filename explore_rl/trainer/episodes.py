@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from tensordict import TensorDictBase
 
+from explore_rl.envs.keys import EM_ACTION
+
 
 @dataclass
 class EpisodeSummary:
@@ -48,7 +50,7 @@ class EpisodeTracker:
 
     def add(self, batch: TensorDictBase) -> list[EpisodeSummary]:
         """Account for a batch ``[workers, T]``; the episodes it finished."""
-        columns = {key: batch[key].numpy() for key in ("episode", "action", "em_action")}
+        columns = {key: batch[key].numpy() for key in ("episode", "action", EM_ACTION)}
         nxt = {key: batch["next", key].reshape(batch.shape).numpy()
                for key in ("reward", "done", "terminated", "explored", "map_error", "travel",
                            "loop_closures", "failed")}
@@ -59,7 +61,7 @@ class EpisodeTracker:
                 current = self.running[w]
                 if current is None or current.episode != episode:
                     current = self.running[w] = RunningEpisode(episode)
-                action, label = int(columns["action"][w, t]), int(columns["em_action"][w, t])
+                action, label = int(columns["action"][w, t]), int(columns[EM_ACTION][w, t])
                 current.actions.append(action)
                 current.reward += float(nxt["reward"][w, t])
                 if label >= 0:

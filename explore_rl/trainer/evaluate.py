@@ -39,6 +39,7 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from explore_rl.config import Config
+from explore_rl.envs.keys import EM_ACTION, NEAREST_ACTION
 
 log = logging.getLogger(__name__)
 
@@ -123,9 +124,9 @@ def greedy_actor(config: Config, actor_path: str | Path | None) -> Chooser:
 def baseline(name: str, seed: int = 0) -> Chooser:
     """nearest, em or random (seeded) as a chooser of encoded rows."""
     if name == "nearest":
-        return lambda td: int(td["nearest_action"])
+        return lambda td: int(td[NEAREST_ACTION])
     if name == "em":
-        return lambda td: int(td["em_action"])
+        return lambda td: int(td[EM_ACTION])
     if name == "random":
         rng = np.random.default_rng(seed)
         return lambda td: int(rng.choice(np.flatnonzero(td["action_mask"].numpy())))
@@ -144,8 +145,8 @@ def play(config: Config, spec: EpisodeSpec, policy: str, choose: Chooser, max_de
     rewards, agreements = [], []
     for _ in range(max_decisions):
         action = choose(td)
-        if int(td["em_action"]) >= 0:
-            agreements.append(action == int(td["em_action"]))
+        if int(td[EM_ACTION]) >= 0:
+            agreements.append(action == int(td[EM_ACTION]))
         out = env.step(td.set("action", torch.tensor(action)))["next"]
         rewards.append(float(out["reward"]))
         td = out

@@ -1,8 +1,8 @@
 """EM-labelled decisions kept for imitation: a TorchRL replay buffer of compact graphs.
 
 The env scores every decision with EM (the Algorithm 1 reward) and so knows EM's choice
-(``em_action``) at no extra cost. A2C uses each decision once; kept here, every labelled
-decision the policy has visited also feeds ``algo.dagger_steps`` supervised
+(``("expert", "em_action")``) at no extra cost. A2C uses each decision once; kept here,
+every labelled decision the policy has visited also feeds ``algo.dagger_steps`` supervised
 steps per update (DAgger: the states come from the learner's own policy, the labels from
 the expert), which is what makes an hour of CPU collection enough to move the policy.
 
@@ -10,6 +10,11 @@ Graphs have different sizes, and a padded ``adj[N, N]`` per decision would cost 
 megabyte, so each decision is stored trimmed to its real nodes with its edges as a list
 (``ListStorage`` holds tensordicts of any shape); :func:`pad_graphs` rebuilds a padded
 batch, as wide as the largest graph sampled, for the actor.
+
+A compact decision is a stored row, not an observation: its label columns keep the flat
+names ``em_action`` and ``action_rewards`` (as the dataset's on-disk columns and the
+buffers in older checkpoints do), and a padded batch returns them under ``("expert", ...)``
+as the env does (explore_rl/envs/keys.py), where no policy reads.
 
 With ``train.dataset=PATH`` the buffer is an on-disk dataset instead
 (explore_rl/trainer/dataset.py: fixed-size rows in a ``LazyMemmapStorage``): every labelled
@@ -26,6 +31,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.data import ListStorage, ReplayBuffer
 
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, EXPERT
 from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset
 
 if TYPE_CHECKING:
@@ -40,7 +46,7 @@ def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
     ``action_mask[n]``, ``action_rewards[n]``, ``em_action`` (and ``layout``, ``episode``
     when the batch has them)."""
     flat = batch.reshape(-1)
-    labelled = (flat["em_action"] >= 0) & flat["action_mask"].any(-1)
+    labelled = (flat[EM_ACTION] >= 0) & flat["action_mask"].any(-1)
     decisions = []
     for index in torch.nonzero(labelled).flatten().tolist():
         node_mask = flat["node_mask"][index].bool()
@@ -52,8 +58,8 @@ def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
             "edges": edges,
             "weights": upper[edges[0].long(), edges[1].long()],
             "action_mask": flat["action_mask"][index, :n].clone(),
-            "action_rewards": flat["action_rewards"][index, :n].clone(),
-            "em_action": flat["em_action"][index].clone(),
+            "action_rewards": flat[ACTION_REWARDS][index, :n].clone(),
+            "em_action": flat[EM_ACTION][index].clone(),
         }, batch_size=[])
         for key in METADATA:
             if key in flat.keys():
@@ -64,7 +70,8 @@ def compact_decisions(batch: TensorDictBase) -> list[TensorDict]:
 
 def pad_graphs(decisions: list[TensorDictBase]) -> TensorDict:
     """A padded batch ``[B]`` (``x``, symmetric ``adj``, ``node_mask``, ``action_mask``,
-    ``action_rewards``, ``em_action``) of compact decisions, ``n = `` the largest graph's size."""
+    ``("expert", "action_rewards")``, ``("expert", "em_action")``) of compact decisions,
+    ``n = `` the largest graph's size."""
     sizes = [d["x"].shape[0] for d in decisions]
     width, features = max(sizes), decisions[0]["x"].shape[-1]
     count = len(decisions)
@@ -83,7 +90,7 @@ def pad_graphs(decisions: list[TensorDictBase]) -> TensorDict:
         action_rewards[row, :n] = decision["action_rewards"]
     labels = torch.stack([d["em_action"] for d in decisions])
     return TensorDict({"x": x, "adj": adj, "node_mask": node_mask, "action_mask": action_mask,
-                       "action_rewards": action_rewards, "em_action": labels}, batch_size=[count])
+                       EXPERT: {ACTION_REWARDS[1]: action_rewards, EM_ACTION[1]: labels}}, batch_size=[count])
 
 
 def make_label_buffer(capacity: int, batch_size: int) -> ReplayBuffer:

@@ -16,6 +16,7 @@ from pathlib import Path
 from tensordict import TensorDictBase
 from tqdm import tqdm
 
+from explore_rl.envs.keys import EM_ACTION
 from explore_rl.trainer.episodes import EpisodeSummary
 
 EXPERIMENT = "a2c"
@@ -62,7 +63,7 @@ class RunLogger:
 
     def update(self, frames: int, batch: TensorDictBase, stats, finished: list[EpisodeSummary],
                ms_update: float, state) -> None:
-        labels, actions = batch["em_action"], batch["action"]
+        labels, actions = batch[EM_ACTION], batch["action"]
         labelled = labels >= 0
         agreement = float((actions[labelled] == labels[labelled]).float().mean()) if labelled.any() else None
         reward = float(batch["next", "reward"].mean())

@@ -29,6 +29,7 @@ from pathlib import Path
 import torch
 
 from explore_rl.config import Config, load_config
+from explore_rl.envs.keys import EM_ACTION
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_file import TRAINING_PREFIX, ActorFile, check_output_file, save_actor_file
 from explore_rl.trainer.a2c import Learner
@@ -79,7 +80,7 @@ def distill_loss_of(learner: Learner, dataset: DecisionDataset, index: torch.Ten
     with torch.no_grad():
         for chunk in index.split(EVAL_CHUNK):
             batch = padded_batch(dataset.rows(chunk), columns)
-            known = int((batch["em_action"] >= 0).sum())
+            known = int((batch[EM_ACTION] >= 0).sum())
             if known:
                 total += learner.distill_loss(batch).item() * known
                 count += known

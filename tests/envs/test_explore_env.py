@@ -9,10 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from torchrl.collectors import Collector, MultiSyncCollector
 from torchrl.envs.utils import check_env_specs
 
 from explore_rl.config import load_config
 from explore_rl.envs import EnvFactory, make_env
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, EXPERT, NEAREST_ACTION
+from explore_rl.graph.features import feature_names
+from explore_rl.models.actor_critic import make_actor, make_critic, make_random_actor
 from explore_rl.planning.em import EMPlanner
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.reward import normalize_rewards
@@ -49,11 +53,30 @@ def test_specs_pass_torchrl_check():
     check_env_specs(env_for("scene=office"), seed=0)
 
 
+def test_the_expert_labels_ride_nested_where_no_policy_reads_them():
+    env = env_for("scene=street")
+    rollout = env.rollout(3)
+    keys = set(rollout.keys(include_nested=True, leaves_only=True))
+    for key in (EM_ACTION, ACTION_REWARDS, NEAREST_ACTION):
+        assert key in keys and ("next", *key) in keys
+        assert key[1] not in rollout.keys() and key[1] not in rollout["next"].keys()
+    assert (rollout[EM_ACTION] >= 0).all()
+    assert rollout["action_mask"].gather(-1, rollout[NEAREST_ACTION][:, None]).all()
+    config = env.config
+    n_features = len(feature_names(config.graph.features))
+    actor, critic = make_actor(config.model, n_features, env.action_spec), make_critic(config.model, n_features)
+    for module in (actor, critic):
+        assert all(key != EXPERT and (isinstance(key, str) or key[0] != EXPERT) for key in module.in_keys)
+    blind = rollout[0].exclude(EXPERT)  # the policy acts, and the critic values, without them
+    assert blind["action_mask"][int(actor(blind.clone())["action"])]
+    assert critic(blind.clone())["state_value"].isfinite().all()
+
+
 def test_reward_is_algorithm_1_on_an_independent_em_evaluation_of_the_same_state():
     env = env_for("scene=office")
     td = env.reset()
     for _ in range(4):  # a few decisions in, so there is more than one frontier
-        td = env.step(td.set("action", td["nearest_action"]))["next"]
+        td = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
     decision = env.decision
     assert len(decision.actions) > 1
     planner = EMPlanner(PolicyConfig(name="em"), env.config.planning, robot=env.config.robot)
@@ -61,10 +84,10 @@ def test_reward_is_algorithm_1_on_an_independent_em_evaluation_of_the_same_state
     expected = normalize_rewards(evaluation.raw, evaluation.nearest, env.config.planning.reward)
     np.testing.assert_array_equal(evaluation.indices, [a.candidate for a in decision.actions])
     np.testing.assert_allclose(decision.rewards, expected)
-    assert td["em_action"].item() == decision.action_row(evaluation.best)
+    assert td[EM_ACTION].item() == decision.action_row(evaluation.best)
     rows = [decision.action_row(k) for k in range(len(decision.actions))]
-    np.testing.assert_allclose(td["action_rewards"][rows].numpy(), expected, atol=1e-6)
-    assert (td["action_rewards"][~td["action_mask"]] == 0).all()
+    np.testing.assert_allclose(td[ACTION_REWARDS][rows].numpy(), expected, atol=1e-6)
+    assert (td[ACTION_REWARDS][~td["action_mask"]] == 0).all()
     last = len(decision.actions) - 1
     row = decision.action_row(last)
     out = env.step(td.clone().set("action", torch.tensor(row)))
@@ -95,17 +118,73 @@ def test_the_action_mask_is_never_empty_before_the_end_in_every_procedural_scene
     assert steps[-1]["next", "done"].item()
 
 
+def assert_valid_actions(data) -> None:
+    """Every action of a rollout or batch is a frontier row of its own observation."""
+    data = data.reshape(-1)
+    assert data["action_mask"].any(-1).all()
+    assert data["action_mask"].gather(-1, data["action"][:, None]).all()
+
+
+def test_random_rollouts_take_frontier_actions_through_the_action_spec_mask():
+    """No ``rand_action`` override: the spec's mask follows each observation, so TorchRL's
+    own random rollout (across an episode end and the reset after it) stays valid."""
+    env = env_for("scene=street", "explore.max_decisions=3")
+    env.set_seed(0)
+    rollout = env.rollout(7, break_when_any_done=False)
+    assert_valid_actions(rollout)
+    assert rollout["next", "done"].sum() >= 2  # two episodes ended inside the rollout
+    assert not rollout["next", "action_mask"][rollout["next", "done"].squeeze(-1)].any()
+    assert torch.equal(env.action_spec.mask, rollout[-1]["next", "action_mask"]) or rollout[-1]["next", "done"]
+
+
+def test_the_final_observations_empty_mask_leaves_random_actions_possible():
+    """A final observation masks every action; a categorical spec cannot sample from that
+    (torch.multinomial raises), so the mask is lifted there and stepping is what refuses."""
+    env = env_for("scene=street", "explore.max_decisions=1")
+    td = env.reset()
+    assert torch.equal(env.action_spec.mask, td["action_mask"])
+    out = env.step(env.rand_action(td))["next"]
+    assert out["done"].item() and not out["action_mask"].any()
+    assert env.action_spec.mask is None
+    with pytest.raises(RuntimeError, match="after the episode ended"):
+        env.step(env.rand_action(out.clone()))
+    td = env.reset()
+    assert torch.equal(env.action_spec.mask, td["action_mask"])
+
+
+def test_a_random_actor_in_a_collector_and_in_spawned_workers_takes_frontier_actions():
+    """``make_random_actor`` reads each observation's mask (TorchRL's ``RandomPolicy`` holds a
+    clone of the spec and cannot); batches cross episode ends, so the final observations'
+    empty masks and the resets after them are on the way."""
+    factory = EnvFactory(load_config([*FAST, "scene=street", "explore.max_decisions=3"]))
+    torch.manual_seed(0)
+    plain = dict(auto_register_policy_transforms=False)  # as the trainer: the env needs no policy transforms
+    collector = Collector(factory, make_random_actor(), frames_per_batch=7, total_frames=7, **plain)
+    batch = next(iter(collector))
+    collector.shutdown()
+    assert_valid_actions(batch)
+    assert batch["next", "done"].sum() >= 2
+    workers = MultiSyncCollector([factory, EnvFactory(factory.config, worker=1)], make_random_actor(),
+                                 frames_per_batch=8, total_frames=8, **plain)
+    try:
+        batch = next(iter(workers))
+    finally:
+        workers.shutdown()
+    assert_valid_actions(batch)
+    assert batch["next", "done"].sum() >= 2
+
+
 def test_a_scene_file_episode():
     env = env_for("scene=file", f"scene.path={LAB}", "explore.travel_budget=30")
-    steps = run_episode(env, choose=lambda td: td["em_action"].item())
+    steps = run_episode(env, choose=lambda td: td[EM_ACTION].item())
     assert steps[-1]["next", "done"].item()
-    assert all(s["em_action"].item() >= 0 for s in steps)
+    assert all(s[EM_ACTION].item() >= 0 for s in steps)
 
 
 def test_the_icp_front_end_drives_a_decision():
     env = make_env(load_config(["slam=icp", "scene=street", "planning.actions.max_frontiers=2"]))
     td = env.reset()
-    out = env.step(td.set("action", td["nearest_action"]))
+    out = env.step(td.set("action", td[NEAREST_ACTION]))
     assert out["next", "keyframes"].item() > td["keyframes"].item()
     assert out["next", "travel"].item() > 0
 
@@ -137,10 +216,10 @@ def test_an_em_failure_gives_reward_zero_and_the_run_goes_on(monkeypatch):
         raise np.linalg.LinAlgError("singular")
 
     monkeypatch.setattr(env.em, "evaluate", broken)
-    out = env.step(td.set("action", td["nearest_action"]))["next"]
-    assert out["em_action"].item() == -1 and not out["done"].item()
-    assert (out["action_rewards"] == 0).all()
-    out = env.step(out.set("action", out["nearest_action"]))
+    out = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
+    assert out[EM_ACTION].item() == -1 and not out["done"].item()
+    assert (out[ACTION_REWARDS] == 0).all()
+    out = env.step(out.set("action", out[NEAREST_ACTION]))
     assert out["next", "reward"].item() == 0.0
     assert env.failures["em"] == 2
 
@@ -153,7 +232,7 @@ def test_a_failure_while_driving_ends_the_episode_truncated(monkeypatch):
         raise RuntimeError("iSAM2 exploded")
 
     monkeypatch.setattr(env.explorer, "act", broken)
-    out = env.step(td.set("action", td["nearest_action"]))["next"]
+    out = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
     assert out["done"].item() and out["truncated"].item() and not out["terminated"].item()
     assert out["failed"].item() and env.failures["step"] == 1
     td = env.reset()  # and the next episode starts normally
@@ -203,11 +282,11 @@ def test_a_restored_episode_reproduces_the_observation_exactly():
     restored = make_env(config)
     restored.restore(episode, actions)
     out = restored.reset()
-    for key in ("x", "adj", "node_mask", "action_mask", "em_action", "nearest_action", "travel",
+    for key in ("x", "adj", "node_mask", "action_mask", EM_ACTION, NEAREST_ACTION, "travel",
                 "explored", "map_error", "keyframes", "loop_closures", "episode"):
-        np.testing.assert_array_equal(out[key].numpy(), td[key].numpy(), err_msg=key)
+        np.testing.assert_array_equal(out[key].numpy(), td[key].numpy(), err_msg=str(key))
     # and the two go on alike
-    step = td.clone().set("action", td["nearest_action"])
+    step = td.clone().set("action", td[NEAREST_ACTION])
     a, b = env.step(step)["next"], restored.step(step.clone())["next"]
     np.testing.assert_array_equal(a["x"].numpy(), b["x"].numpy())
     assert a["reward"].item() == b["reward"].item()

@@ -7,6 +7,7 @@ import pytest
 
 from explore_rl.config import load_config
 from explore_rl.envs import make_env
+from explore_rl.envs.keys import NEAREST_ACTION
 from explore_rl.graph.exploration_graph import graph_from_state
 from explore_rl.graph.features import FRONTIER_EXTRAS, PAPER, disc_fraction, feature_set_of, scales_for
 
@@ -38,7 +39,7 @@ def test_extended_graph_adds_frontier_columns_from_the_state():
     env = make_env(config)
     td = env.reset()
     for _ in range(2):  # a state with some history
-        td = env.step(td.set("action", td["nearest_action"]))["next"]
+        td = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
     decision = env.decision
     state, actions = decision.state, decision.actions
     context = env.em.decision_context(state)

@@ -11,6 +11,7 @@ import torch
 
 from explore_rl.config import load_config
 from explore_rl.envs import make_env
+from explore_rl.envs.keys import NEAREST_ACTION
 from explore_rl.models.actor_critic import Dropout
 from explore_rl.trainer.a2c import Learner, TrainingRun, make_collector, train
 from explore_rl.models.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
@@ -232,7 +233,7 @@ def _episode_batch(config) -> "torch.Tensor":
     td = env.reset()
     steps = []
     while True:
-        td = td.set("action", td["nearest_action"].clone())
+        td = td.set("action", td[NEAREST_ACTION].clone())
         td = env.step(td)
         steps.append(td.clone())
         if bool(td["next", "done"]):

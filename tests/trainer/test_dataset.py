@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from explore_rl.config import load_config
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION
 from explore_rl.graph.features import feature_names
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset, fixed_rows, padded_batch
@@ -20,7 +21,7 @@ def schema_for(config, capacity: int = 100, max_edges: int = 2048) -> DatasetSch
 
 def labelled_rows(batch):  # noqa: F811
     flat = batch.reshape(-1)
-    return flat, torch.nonzero((flat["em_action"] >= 0) & flat["action_mask"].any(-1)).flatten()
+    return flat, torch.nonzero((flat[EM_ACTION] >= 0) & flat["action_mask"].any(-1)).flatten()
 
 
 def test_decisions_written_to_disk_give_the_actor_the_logits_of_the_original_observation(batch, tmp_path):  # noqa: F811
@@ -41,8 +42,8 @@ def test_decisions_written_to_disk_give_the_actor_the_logits_of_the_original_obs
     mask = flat["action_mask"][labelled]
     assert torch.equal(replayed["action_mask"], mask[:, :width]) and not mask[:, width:].any()
     torch.testing.assert_close(again[replayed["action_mask"]], original[mask], rtol=0, atol=1e-6)
-    torch.testing.assert_close(replayed["action_rewards"], flat["action_rewards"][labelled][:, :width])
-    assert torch.equal(replayed["em_action"], flat["em_action"][labelled])
+    torch.testing.assert_close(replayed[ACTION_REWARDS], flat[ACTION_REWARDS][labelled][:, :width])
+    assert torch.equal(replayed[EM_ACTION], flat[EM_ACTION][labelled])
     rows = reopened.rows()
     assert torch.equal(rows["layout"], flat["layout"][labelled])
     assert torch.equal(rows["episode"], flat["episode"][labelled])

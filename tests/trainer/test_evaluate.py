@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from explore_rl.config import load_config
+from explore_rl.envs.keys import EM_ACTION, NEAREST_ACTION
 from explore_rl.trainer.evaluate import (
     EpisodeResult,
     EpisodeSpec,
@@ -43,8 +44,8 @@ def test_every_policy_sees_the_same_first_observation():
             return int(td[pick])
         return choose
 
-    em = play(config, spec, "em", recorder("em", "em_action"), 1)
-    nearest = play(config, spec, "nearest", recorder("nearest", "nearest_action"), 1)
+    em = play(config, spec, "em", recorder("em", EM_ACTION), 1)
+    nearest = play(config, spec, "nearest", recorder("nearest", NEAREST_ACTION), 1)
     assert (em.layout, em.start, em.seed) == (nearest.layout, nearest.start, nearest.seed) == (4, 0, spec.seed)
     np.testing.assert_allclose(firsts["em"].numpy(), firsts["nearest"].numpy(), rtol=0, atol=0)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
+from explore_rl.envs.keys import ACTION_REWARDS
 from explore_rl.models.actor_file import load_actor
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
@@ -32,7 +33,7 @@ def test_the_offline_loss_is_the_learners_distillation_loss(batch, dataset):  # 
     with torch.no_grad():
         assert on_disk == pytest.approx(learner.distill_loss(direct).item(), abs=1e-6)
         probs = torch.softmax(learner.actor.get_dist(direct).logits, -1)
-    by_hand = -(probs * direct["action_rewards"]).sum(-1).mean().item()
+    by_hand = -(probs * direct[ACTION_REWARDS]).sum(-1).mean().item()
     assert on_disk == pytest.approx(by_hand, abs=1e-5)
 
 
@@ -47,7 +48,7 @@ def test_offline_training_lowers_the_distillation_loss_on_a_fixed_dataset(datase
     after = distill_loss_of(learner, dataset, everything, list(range(4)))
     assert result.steps == 40 and len(result.losses) == 40 and result.rows == len(dataset)
     best = padded_batch(dataset.rows())
-    best = (best["action_rewards"] + torch.where(best["action_mask"], 0.0, -9.0)).max(-1).values.mean().item()
+    best = (best[ACTION_REWARDS] + torch.where(best["action_mask"], 0.0, -9.0)).max(-1).values.mean().item()
     assert after < before - 0.1 * abs(before) and -after <= best + 1e-6
 
 
