@@ -2,16 +2,26 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import asdict
+
 import pytest
 import torch
+from torchrl.data import LazyMemmapStorage, ReplayBuffer
 
 from explore_rl.config import load_config
-from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, EXPERT
 from explore_rl.graph.features import feature_names
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset, fixed_rows, padded_batch
 from explore_rl.trainer.imitation import DatasetLabels, compact_decisions
 from tests.trainer.test_a2c import batch, config_for  # noqa: F401 -- the module's real batch fixture
+
+
+# the on-disk columns of format explore_rl.decisions/1, as datasets were first written
+# (before the env nested the labels under "expert"): they must keep loading
+FORMAT_1_COLUMNS = {"x", "edges", "weights", "n_edges", "n_nodes", "action_mask", "action_rewards", "em_action",
+                    "layout", "episode", "scene"}
 
 
 def schema_for(config, capacity: int = 100, max_edges: int = 2048) -> DatasetSchema:
@@ -83,6 +93,32 @@ def test_a_dataset_samples_padded_minibatches_the_actor_reads(batch, tmp_path): 
     assert (sample["action_mask"] <= sample["node_mask"]).all()
     assert torch.equal(sample["adj"], sample["adj"].transpose(1, 2))
     Learner(config).actor.get_dist(sample)  # no error: the keys and shapes the actor reads
+
+
+def test_a_dataset_written_with_flat_label_columns_still_loads_with_the_labels_nested(batch, tmp_path):  # noqa: F811
+    """The stored forms keep the flat column names (a compact decision, a row on disk), so
+    datasets and checkpoint buffers written before the env nested its labels still load;
+    a batch made from them carries the labels under ("expert", ...) like the env."""
+    config = config_for()
+    flat, labelled = labelled_rows(batch)
+    decisions = compact_decisions(batch)
+    assert {"em_action", "action_rewards"} <= set(decisions[0].keys()) and EXPERT not in decisions[0].keys()
+    schema = schema_for(config)
+    rows, _ = fixed_rows(decisions, schema, "street")
+    assert set(rows.keys()) == FORMAT_1_COLUMNS
+    # written as the first dataset code did: TorchRL's buffer over LazyMemmapStorage, dumped
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "dataset.json").write_text(json.dumps({**asdict(schema), "format": "explore_rl.decisions/1"}))
+    buffer = ReplayBuffer(storage=LazyMemmapStorage(schema.capacity, scratch_dir=old / "storage"))
+    buffer.extend(rows)
+    buffer.dumps(old)
+    del buffer
+    replayed = padded_batch(DecisionDataset(old).rows())
+    assert "em_action" not in replayed.keys() and "action_rewards" not in replayed.keys()
+    assert torch.equal(replayed[EM_ACTION], flat[EM_ACTION][labelled])
+    width = replayed["x"].shape[1]
+    torch.testing.assert_close(replayed[ACTION_REWARDS], flat[ACTION_REWARDS][labelled][:, :width])
 
 
 def test_decisions_larger_than_the_schema_are_skipped_and_counted(batch):  # noqa: F811
