@@ -17,9 +17,11 @@ distillation term needs, aligned with the action taken there.
 
 The action spec's mask follows ``action_mask`` (``Categorical.update_mask`` at every
 reset and step), so TorchRL's own random actions (``env.rand_action``, ``env.rollout``
-without a policy, ``RandomPolicy`` in a collector) pick frontier nodes only. A final
-observation offers no action; a categorical spec cannot sample from an all-False mask,
-so there the mask is lifted (stepping a finished episode is an error anyway).
+without a policy, ``check_env_specs``) pick frontier nodes only. A final observation
+offers no action; a categorical spec cannot sample from an all-False mask, so there the
+mask is lifted (stepping a finished episode is an error anyway). TorchRL's
+``RandomPolicy`` samples a clone of the spec made when it is built, which never sees a
+later mask: a collector's random policy is ``models.actor_critic.make_random_actor()``.
 
 An episode can be restored (:meth:`ExplorationEnv.restore`): the next reset re-runs
 episode ``k`` from its seed and replays the recorded actions, which reproduces the state
