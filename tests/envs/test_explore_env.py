@@ -164,6 +164,7 @@ def test_a_random_actor_in_a_collector_and_in_spawned_workers_takes_frontier_act
     collector.shutdown()
     assert_valid_actions(batch)
     assert batch["next", "done"].sum() >= 2
+    assert {EM_ACTION, ("next", *EM_ACTION)} <= set(batch.keys(include_nested=True))  # nested keys kept
     workers = MultiSyncCollector([factory, EnvFactory(factory.config, worker=1)], make_random_actor(),
                                  frames_per_batch=8, total_frames=8, **plain)
     try:
