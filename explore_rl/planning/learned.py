@@ -201,8 +201,9 @@ class LearnedPolicy:
     ``config.checkpoint``: an actor file (explore_rl/models/actor_file.py) or a training
     checkpoint; by default the shipped policy. A missing or unusable file raises
     ``CheckpointError`` (a ValueError) with one line naming it. ``reference``: decide by
-    the first implementation (:func:`graph_features_reference`, the encoding padded to
-    ``graph.max_nodes``) -- the same choices, kept to check and time the fast path against.
+    the first implementation (the candidates' paths predicted one at a time,
+    :func:`graph_features_reference`, the encoding padded to ``graph.max_nodes``) -- the
+    same choices, kept to check and time the fast path against.
     """
 
     name = "learned"
@@ -233,7 +234,7 @@ class LearnedPolicy:
 
     def choose(self, state: ExplorationState) -> int:
         start = time.perf_counter()
-        actions = select_actions(state, self.planning.actions, self.planning.revisits)
+        actions = select_actions(state, self.planning.actions, self.planning.revisits, self.reference)
         after_actions = time.perf_counter()
         features = graph_features_reference if self.reference else graph_features
         graph = features(state, actions, self.virtual_map(state.session.occupancy.grid),

@@ -9,6 +9,7 @@ revisit keeps only its closest predicted pose.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -99,21 +100,66 @@ def predict_revisits(
     represented by its closest pair. Sorted by keyframe index.
     """
     path_xy = np.asarray(path_xy, float).reshape(-1, 2)
-    keyframe_xy = np.asarray(keyframe_xy, float).reshape(-1, 2)
-    if len(path_xy) == 0 or len(keyframe_xy) == 0:
-        return []
     if path_travel is None:
         path_travel = cumulative_length(path_xy)
-    path_idx, kf_idx, dist = _pairs_within(path_xy, keyframe_xy, config.r_lc)
-    gap = current_travel + np.asarray(path_travel)[path_idx] - np.asarray(keyframe_travel)[kf_idx]
+    return predict_revisits_of_paths([path_xy], keyframe_xy, keyframe_travel, current_travel, blocked, grid,
+                                     config, [path_travel])[0]
+
+
+def predict_revisits_of_paths(
+    paths_xy: Sequence[np.ndarray],
+    keyframe_xy: np.ndarray,
+    keyframe_travel: np.ndarray,
+    current_travel: float,
+    blocked: np.ndarray,
+    grid: GridSpec,
+    config: RevisitConfig,
+    paths_travel: Sequence[np.ndarray],
+) -> list[list[Revisit]]:
+    """:func:`predict_revisits` of several paths at once (a decision's candidates): one
+    KD-tree query for all their poses and one line-of-sight test per distinct segment --
+    the candidates' paths leave from the same robot pose along one Dijkstra tree, so
+    they share poses, and pairs that qualify for several candidates are tested once. Each
+    path's answer is what :func:`predict_revisits` gives it alone (each pair's tests are
+    its own)."""
+    paths_xy = [np.asarray(p, float).reshape(-1, 2) for p in paths_xy]
+    keyframe_xy = np.asarray(keyframe_xy, float).reshape(-1, 2)
+    counts = np.array([len(p) for p in paths_xy], dtype=np.int64)
+    if counts.sum() == 0 or len(keyframe_xy) == 0:
+        return [[] for _ in paths_xy]
+    all_xy = np.concatenate(paths_xy)
+    all_travel = np.concatenate([np.asarray(t, float).reshape(-1) for t in paths_travel])
+    pose_idx, kf_idx, dist = _pairs_within(all_xy, keyframe_xy, config.r_lc)
+    gap = current_travel + all_travel[pose_idx] - np.asarray(keyframe_travel)[kf_idx]
     keep = gap > config.min_travel_gap
-    path_idx, kf_idx, dist = path_idx[keep], kf_idx[keep], dist[keep]
-    visible = line_of_sight(
-        path_xy[path_idx], keyframe_xy[kf_idx], blocked, grid, config.los_step_fraction
-    )
-    path_idx, kf_idx, dist = path_idx[visible], kf_idx[visible], dist[visible]
-    path_idx, kf_idx, dist = _closest_per_keyframe(path_idx, kf_idx, dist)
-    return _merge_runs(path_idx, kf_idx, dist, config.merge_keyframe_gap)
+    pose_idx, kf_idx, dist = pose_idx[keep], kf_idx[keep], dist[keep]
+    visible = distinct_line_of_sight(all_xy[pose_idx], kf_idx, keyframe_xy, blocked, grid, config.los_step_fraction)
+    pose_idx, kf_idx, dist = pose_idx[visible], kf_idx[visible], dist[visible]
+    owner = np.repeat(np.arange(len(paths_xy)), counts)[pose_idx]
+    first_pose = np.cumsum(counts) - counts
+    order = np.argsort(owner, kind="stable")
+    bounds = np.searchsorted(owner[order], np.arange(len(paths_xy) + 1))
+    found = []
+    for path, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:])):
+        rows = order[lo:hi]
+        closest = _closest_per_keyframe(pose_idx[rows] - first_pose[path], kf_idx[rows], dist[rows])
+        found.append(_merge_runs(*closest, config.merge_keyframe_gap))
+    return found
+
+
+def distinct_line_of_sight(start_xy: np.ndarray, kf_idx: np.ndarray, keyframe_xy: np.ndarray, blocked: np.ndarray,
+                           grid: GridSpec, step_fraction: float) -> np.ndarray:
+    """:func:`line_of_sight` from each ``start_xy`` to keyframe ``kf_idx``, each distinct
+    (start, keyframe) pair tested once (a segment's test depends on its ends only)."""
+    if len(start_xy) == 0:
+        return np.ones(0, dtype=bool)
+    order = np.lexsort((kf_idx, start_xy[:, 1], start_xy[:, 0]))  # equal pairs side by side
+    start, kf = start_xy[order], kf_idx[order]
+    new = np.r_[True, np.any(start[1:] != start[:-1], axis=1) | (kf[1:] != kf[:-1])]
+    clear = line_of_sight(start[new], keyframe_xy[kf[new]], blocked, grid, step_fraction)
+    distinct = np.empty(len(order), dtype=np.int64)
+    distinct[order] = np.cumsum(new) - 1
+    return clear[distinct]
 
 
 def _pairs_within(
