@@ -30,7 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine, parse_args, time_call  # noqa: E402
+from common import emit, machine, new_observation, parse_args, time_call  # noqa: E402
 
 import torch  # noqa: E402
 
@@ -227,12 +227,12 @@ def measure(n_poses: int, n_candidates: int, setup: BenchSetup, actor: GraphActo
 
     ms_em = 1e3 * time_call(lambda: em.choose(state), setup.repeats)
     ms_nearest = 1e3 * time_call(lambda: nearest.choose(state), 1000)
-    ms_learned_reference = 1e3 * time_call(lambda: reference.choose(state), max(setup.repeats, 3))
-    ms_learned = 1e3 * time_call(lambda: learned.choose(state), max(setup.repeats, 3))
+    ms_learned_reference = 1e3 * time_call(new_observation(lambda: reference.choose(state)), max(setup.repeats, 3))
+    ms_learned = 1e3 * time_call(new_observation(lambda: learned.choose(state)), max(setup.repeats, 3))
     parts = dict(learned.last_ms)
     same_choice = learned.choose(state) == reference.choose(state)
     encoded = encode(learned.last_graph, graph.max_nodes)
-    ms_paper = 1e3 * time_call(lambda: choose_row(paper_actor, encoded), max(setup.repeats, 3))
+    ms_paper = 1e3 * time_call(new_observation(lambda: choose_row(paper_actor, encoded)), max(setup.repeats, 3))
     evaluation = em.last_evaluation
     return {"poses": n_poses, "candidates": len(state.candidates), "ms_em": ms_em,
             "path_m": float(np.mean(evaluation.lengths)),
