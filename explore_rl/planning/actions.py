@@ -19,7 +19,13 @@ import numpy as np
 
 from explore_rl.grid import GridSpec
 from explore_rl.planning.config import ActionSetConfig, RevisitConfig
-from explore_rl.planning.revisits import Revisit, predict_revisits, predict_revisits_of_paths, sample_path
+from explore_rl.planning.revisits import (
+    Revisit,
+    predict_revisits,
+    predict_revisits_of_paths,
+    predict_revisits_reference,
+    sample_path,
+)
 
 if TYPE_CHECKING:
     from explore_rl.state import ExplorationState
@@ -72,10 +78,16 @@ def predict_candidate_paths(state: ExplorationState, revisits: RevisitConfig) ->
 
 
 def predict_candidate_paths_reference(state: ExplorationState, revisits: RevisitConfig) -> list[PathPrediction]:
-    """:func:`predict_path` for every candidate of ``state``, one at a time."""
+    """:func:`predict_path` for every candidate of ``state``, one at a time, as first
+    written (:func:`~explore_rl.planning.revisits.predict_revisits_reference`)."""
     keyframe_xy, keyframe_travel, blocked, spacing = _keyframe_inputs(state)
-    return [predict_path(c.path, keyframe_xy, keyframe_travel, float(state.travel), blocked,
-                         state.session.occupancy.grid, revisits, spacing) for c in state.candidates]
+    predictions = []
+    for candidate in state.candidates:
+        poses, travel = sample_path(candidate.path, spacing)
+        found = predict_revisits_reference(poses[:, :2], keyframe_xy, keyframe_travel, float(state.travel), blocked,
+                                           state.session.occupancy.grid, revisits, path_travel=travel)
+        predictions.append(PathPrediction(poses, travel, found))
+    return predictions
 
 
 def _keyframe_inputs(state: ExplorationState) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:

@@ -16,6 +16,14 @@ fuses only the observations of those landmarks, from the keyframes within sensor
 in keyframe order and with the same observation model and covariance-intersection kernel
 as the full map (:class:`~explore_rl.planning.em.Observations`), so the graph is the same
 (tests/planning/test_learned.py compares it with the environment's on real states).
+
+**Fast path** (issue 24: decide >= 5x faster than EM; ``benchmarks/bench_decision_real.py``):
+every candidate's revisits predicted at once (:func:`~explore_rl.planning.actions.predict_candidate_paths`),
+one fusion for the frontiers' landmarks and the extended set's, the pairs within sensor
+range from a KD-tree (:func:`pairs_in_range`), and the encoding padded only to the graph's
+nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
+implementation stays as ``LearnedPolicy(reference=True)``; tests compare both on real
+states (same graph, same frontier, logits within 1e-5).
 """
 
 from __future__ import annotations
@@ -117,7 +125,13 @@ def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
     map, computed from the frontiers' landmarks alone (the prior outside the map)."""
     index = vmap.landmark_index(np.asarray(frontier_xy, float).reshape(-1, 2))
     landmarks = np.unique(index[index >= 0])
-    fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, pairs)
+    return covariances_of(vmap, index, landmarks, landmark_covariances(vmap, poses, pose_covs, blocked, landmarks,
+                                                                       pairs))
+
+
+def covariances_of(vmap: VirtualMap, index: np.ndarray, landmarks: np.ndarray, fused: np.ndarray) -> np.ndarray:
+    """``(F, 2, 2)``: the covariance of landmark ``index[f]`` among the ``fused`` ones of
+    ``landmarks`` (ascending, holding every index >= 0); the prior for -1 (outside the map)."""
     covs = np.repeat((vmap.config.prior_std**2 * np.eye(2))[None], len(index), axis=0)
     inside = index >= 0
     covs[inside] = fused[np.searchsorted(landmarks, index[inside])]
@@ -142,24 +156,19 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     (their mean uncertainty is a column), still a small part of the map: one fusion of the
     frontiers' landmarks and those together (each landmark is fused on its own, so a
     frontier's covariance is the same whatever else is fused with it)."""
-    session = state.session
-    poses = session.graph.poses_se2()
-    pose_covs, _ = pose_covariances(session.graph, poses, backend)
-    blocked = session.occupancy.known_occupied
-    frontier_xy = action_frontiers(state, actions)
+    poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
     index = vmap.landmark_index(frontier_xy)
     near = (landmarks_near(vmap, frontier_xy, vmap.config.sensor_range) if features == "extended"
             else np.zeros(0, dtype=np.int64))
     landmarks = np.union1d(index[index >= 0], near)
     fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
-    frontier_covs = np.repeat((vmap.config.prior_std**2 * np.eye(2))[None], len(index), axis=0)
-    frontier_covs[index >= 0] = fused[np.searchsorted(landmarks, index[index >= 0])]
+    frontier_covs = covariances_of(vmap, index, landmarks, fused)
     extra = None
     if features == "extended":
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near],
                                 fused[np.searchsorted(landmarks, near)], vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(session.graph.edges), extra)
+                                factor_edges(state.session.graph.edges), extra)
 
 
 def graph_features_reference(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
@@ -167,11 +176,7 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
     """:func:`graph_features` as first written (the reference the fast path must equal):
     the frontiers' landmarks and the extended set's landmarks fused separately, pairs
     in range from the full distance matrix."""
-    session = state.session
-    poses = session.graph.poses_se2()
-    pose_covs, _ = pose_covariances(session.graph, poses, backend)
-    blocked = session.occupancy.known_occupied
-    frontier_xy = action_frontiers(state, actions)
+    poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
     frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, pairs_in_range_reference)
     extra = None
     if features == "extended":
@@ -180,7 +185,17 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(session.graph.edges), extra)
+                                factor_edges(state.session.graph.edges), extra)
+
+
+def decision_estimates(state: ExplorationState, actions: list[Action],
+                       backend: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Keyframe estimates ``(K, 3)``, their world-frame marginals ``(K, 3, 3)``, the
+    known-occupied cells and the action frontiers' waypoints ``(F, 2)``."""
+    session = state.session
+    poses = session.graph.poses_se2()
+    pose_covs, _ = pose_covariances(session.graph, poses, backend)
+    return poses, pose_covs, session.occupancy.known_occupied, action_frontiers(state, actions)
 
 
 def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:

@@ -32,7 +32,7 @@ def cumulative_length(path_xy: np.ndarray) -> np.ndarray:
     """Arc length ``(P,)`` at each vertex of a polyline ``(P, 2)``, starting at 0."""
     path_xy = np.asarray(path_xy, float).reshape(-1, 2)
     seg = np.linalg.norm(np.diff(path_xy, axis=0), axis=1)
-    return np.r_[0.0, np.cumsum(seg)]
+    return np.concatenate(([0.0], np.cumsum(seg)))
 
 
 def sample_path(
@@ -46,26 +46,32 @@ def sample_path(
     (the next segment at a vertex, the last segment at the end).
     """
     pts = np.asarray(path_xy, float).reshape(-1, 2)
-    if len(pts) > 1:
-        keep = np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]
+    if len(pts) > 1:  # (called per candidate per decision: plain concatenate, no np.r_)
+        keep = np.concatenate(([True], np.any(np.diff(pts, axis=0) != 0, axis=1)))
         pts = pts[keep]
     if len(pts) < 2:
         if include_start and len(pts) == 1:
             return np.array([[pts[0, 0], pts[0, 1], 0.0]]), np.zeros(1)
         return np.zeros((0, 3)), np.zeros(0)
-    vertex_s = cumulative_length(pts)
+    direction = np.diff(pts, axis=0)
+    length = np.linalg.norm(direction, axis=1)
+    vertex_s = np.concatenate(([0.0], np.cumsum(length)))  # cumulative_length(pts)
     total = vertex_s[-1]
     s = keyframe_spacing * np.arange(1, int(np.floor(total / keyframe_spacing)) + 1)
-    if len(s) == 0 or not np.isclose(s[-1], total):
-        s = np.r_[s, total]
+    if len(s) == 0 or not _isclose(s[-1], total):
+        s = np.append(s, total)
     if include_start:
-        s = np.r_[0.0, s]
-    seg = np.clip(np.searchsorted(vertex_s, s, side="right") - 1, 0, len(pts) - 2)
-    direction = np.diff(pts, axis=0)
-    unit = direction / np.linalg.norm(direction, axis=1)[:, None]
+        s = np.concatenate(([0.0], s))
+    seg = np.minimum(np.maximum(np.searchsorted(vertex_s, s, side="right") - 1, 0), len(pts) - 2)
+    unit = direction / length[:, None]
     xy = pts[seg] + (s - vertex_s[seg])[:, None] * unit[seg]
     yaw = np.arctan2(unit[seg, 1], unit[seg, 0])
     return np.column_stack([xy, yaw]), s
+
+
+def _isclose(a: float, b: float) -> bool:
+    """``np.isclose(a, b)`` (default tolerances) for two finite scalars, without its overhead."""
+    return bool(abs(a - b) <= 1e-8 + 1e-5 * abs(b))
 
 
 def sample_path_poses(
@@ -136,15 +142,66 @@ def predict_revisits_of_paths(
     visible = distinct_line_of_sight(all_xy[pose_idx], kf_idx, keyframe_xy, blocked, grid, config.los_step_fraction)
     pose_idx, kf_idx, dist = pose_idx[visible], kf_idx[visible], dist[visible]
     owner = np.repeat(np.arange(len(paths_xy)), counts)[pose_idx]
-    first_pose = np.cumsum(counts) - counts
-    order = np.argsort(owner, kind="stable")
-    bounds = np.searchsorted(owner[order], np.arange(len(paths_xy) + 1))
-    found = []
-    for path, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:])):
-        rows = order[lo:hi]
-        closest = _closest_per_keyframe(pose_idx[rows] - first_pose[path], kf_idx[rows], dist[rows])
-        found.append(_merge_runs(*closest, config.merge_keyframe_gap))
+    path_idx = pose_idx - (np.cumsum(counts) - counts)[owner]
+    found: list[list[Revisit]] = [[] for _ in paths_xy]
+    for path, index, keyframe, distance in zip(*_closest_per_place(owner, path_idx, kf_idx, dist,
+                                                                   config.merge_keyframe_gap)):
+        found[path].append(Revisit(int(index), int(keyframe), float(distance)))
     return found
+
+
+def _closest_per_place(owner: np.ndarray, path_idx: np.ndarray, kf_idx: np.ndarray, dist: np.ndarray,
+                       max_gap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per path (``owner``): each keyframe's closest pair (ties: the earliest path pose),
+    then runs of keyframes with index gaps ``<= max_gap`` merged into their closest pair
+    (ties: the lowest keyframe). Sorted by path, then keyframe."""
+    order = np.lexsort((path_idx, dist, kf_idx, owner))
+    owner, path_idx, kf_idx, dist = owner[order], path_idx[order], kf_idx[order], dist[order]
+    first = _starts(owner, kf_idx, 0)
+    owner, path_idx, kf_idx, dist = owner[first], path_idx[first], kf_idx[first], dist[first]
+    run = np.cumsum(_starts(owner, kf_idx, max_gap)) - 1
+    best = np.lexsort((np.arange(len(run)), dist, run))  # each run's rows, closest first
+    ranked = run[best]
+    best = best[np.concatenate([[True], ranked[1:] != ranked[:-1]])[: len(best)]]
+    return owner[best], path_idx[best], kf_idx[best], dist[best]
+
+
+def _starts(owner: np.ndarray, kf_idx: np.ndarray, max_gap: int) -> np.ndarray:
+    """Where a new group starts in rows sorted by (owner, keyframe): another owner, or a
+    keyframe more than ``max_gap`` past the previous one."""
+    start = np.ones(len(owner), dtype=bool)
+    start[1:] = (owner[1:] != owner[:-1]) | (kf_idx[1:] - kf_idx[:-1] > max_gap)
+    return start
+
+
+def predict_revisits_reference(
+    path_xy: np.ndarray,
+    keyframe_xy: np.ndarray,
+    keyframe_travel: np.ndarray,
+    current_travel: float,
+    blocked: np.ndarray,
+    grid: GridSpec,
+    config: RevisitConfig,
+    path_travel: np.ndarray | None = None,
+) -> list[Revisit]:
+    """:func:`predict_revisits` as first written, one path alone (the reference the
+    paths-at-once version must equal; tests and ``LearnedPolicy(reference=True)``)."""
+    path_xy = np.asarray(path_xy, float).reshape(-1, 2)
+    keyframe_xy = np.asarray(keyframe_xy, float).reshape(-1, 2)
+    if len(path_xy) == 0 or len(keyframe_xy) == 0:
+        return []
+    if path_travel is None:
+        path_travel = cumulative_length(path_xy)
+    path_idx, kf_idx, dist = _pairs_within(path_xy, keyframe_xy, config.r_lc)
+    gap = current_travel + np.asarray(path_travel)[path_idx] - np.asarray(keyframe_travel)[kf_idx]
+    keep = gap > config.min_travel_gap
+    path_idx, kf_idx, dist = path_idx[keep], kf_idx[keep], dist[keep]
+    visible = line_of_sight(
+        path_xy[path_idx], keyframe_xy[kf_idx], blocked, grid, config.los_step_fraction
+    )
+    path_idx, kf_idx, dist = path_idx[visible], kf_idx[visible], dist[visible]
+    path_idx, kf_idx, dist = _closest_per_keyframe(path_idx, kf_idx, dist)
+    return _merge_runs(path_idx, kf_idx, dist, config.merge_keyframe_gap)
 
 
 def distinct_line_of_sight(start_xy: np.ndarray, kf_idx: np.ndarray, keyframe_xy: np.ndarray, blocked: np.ndarray,

@@ -14,6 +14,7 @@ from explore_rl.planning.revisits import (
     distinct_line_of_sight,
     predict_revisits,
     predict_revisits_of_paths,
+    predict_revisits_reference,
     sample_path,
     sample_path_poses,
 )
@@ -153,7 +154,7 @@ def test_sample_path_degenerate():
 def test_paths_at_once_equal_each_path_alone():
     """A decision's candidates: random walks branching off one shared stretch from the
     robot, a wall across part of the map. :func:`predict_revisits_of_paths` gives every
-    path what :func:`predict_revisits` gives it alone (empty paths too)."""
+    path what the first implementation gives it alone (empty paths too)."""
     rng = np.random.default_rng(7)
     kf_xy = np.cumsum(rng.normal(0, 0.4, (120, 2)), axis=0) + 5.0
     kf_xy = np.clip(kf_xy, 0.5, 9.5)
@@ -167,9 +168,11 @@ def test_paths_at_once_equal_each_path_alone():
     travels = [cumulative_length(p) for p in paths]
     current = kf_travel[-1]
     together = predict_revisits_of_paths(paths, kf_xy, kf_travel, current, blocked, GRID, CFG, travels)
-    alone = [predict_revisits(p, kf_xy, kf_travel, current, blocked, GRID, CFG, path_travel=t)
+    alone = [predict_revisits_reference(p, kf_xy, kf_travel, current, blocked, GRID, CFG, path_travel=t)
              for p, t in zip(paths, travels)]
     assert together == alone
+    assert [predict_revisits(p, kf_xy, kf_travel, current, blocked, GRID, CFG, path_travel=t)
+            for p, t in zip(paths, travels)] == alone
     assert sum(len(found) for found in alone) > 8 and alone[-1] == []
 
 
