@@ -112,16 +112,9 @@ def predict_revisits(
                                      config, [path_travel])[0]
 
 
-def predict_revisits_of_paths(
-    paths_xy: Sequence[np.ndarray],
-    keyframe_xy: np.ndarray,
-    keyframe_travel: np.ndarray,
-    current_travel: float,
-    blocked: np.ndarray,
-    grid: GridSpec,
-    config: RevisitConfig,
-    paths_travel: Sequence[np.ndarray],
-) -> list[list[Revisit]]:
+def predict_revisits_of_paths(paths_xy: Sequence[np.ndarray], keyframe_xy: np.ndarray, keyframe_travel: np.ndarray,
+                              current_travel: float, blocked: np.ndarray, grid: GridSpec, config: RevisitConfig,
+                              paths_travel: Sequence[np.ndarray]) -> list[list[Revisit]]:
     """:func:`predict_revisits` of several paths at once (a decision's candidates): one
     KD-tree query for all their poses and one line-of-sight test per distinct segment --
     the candidates' paths leave from the same robot pose along one Dijkstra tree, so
@@ -194,16 +187,9 @@ def distinct_ids(xy: np.ndarray) -> np.ndarray:
     return ids
 
 
-def predict_revisits_reference(
-    path_xy: np.ndarray,
-    keyframe_xy: np.ndarray,
-    keyframe_travel: np.ndarray,
-    current_travel: float,
-    blocked: np.ndarray,
-    grid: GridSpec,
-    config: RevisitConfig,
-    path_travel: np.ndarray | None = None,
-) -> list[Revisit]:
+def predict_revisits_reference(path_xy: np.ndarray, keyframe_xy: np.ndarray, keyframe_travel: np.ndarray,
+                               current_travel: float, blocked: np.ndarray, grid: GridSpec, config: RevisitConfig,
+                               path_travel: np.ndarray | None = None) -> list[Revisit]:
     """:func:`predict_revisits` as first written, one path alone (the reference the
     paths-at-once version must equal; tests and ``LearnedPolicy(reference=True)``)."""
     path_xy = np.asarray(path_xy, float).reshape(-1, 2)
