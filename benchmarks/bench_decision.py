@@ -13,7 +13,11 @@ state's Dijkstra is shared by every policy). The learned policy's time is its ``
 action set (the same as EM's), exploration graph, encoding and forward pass, with the
 shipped actor if ``policies/buildings_distill/actor.pt`` exists, else a randomly initialised
 actor of the default model size (the output says which); the forward pass of a
-hidden-1000 actor is timed as well. One torch thread.
+hidden-1000 actor is timed as well. ``ms_learned_reference`` is the same decision by the
+first implementation (``LearnedPolicy(reference=True)``: candidates' revisits one path at a
+time, two landmark fusions from full distance matrices, padding to ``graph.max_nodes``),
+``em_over_learned`` EM's time over the fast path's. Real states (street, garage):
+``benchmarks/bench_decision_real.py``. One torch thread.
 
     python benchmarks/bench_decision.py [--quick | --smoke]
 """
