@@ -73,8 +73,8 @@ def encode(graph: ExplorationGraph, max_nodes: int, compact: bool = False) -> En
     """Padded arrays of ``graph`` with ``N = max_nodes`` rows (what TorchRL's fixed specs
     need). ``compact``: the same nodes (dropped ones too) with no padding rows, ``N`` = the
     nodes kept -- for one decision at inference, where the g-U-Net's outputs on real rows
-    do not depend on the padding (it packs the real nodes; tests/graph/test_encode.py)
-    and a 1024 x 1024 adjacency would only be filled with zeros and scanned."""
+    do not depend on the padding (it packs the real nodes; tests/planning/test_learned.py
+    compares the logits) and padding buys nothing."""
     nodes = nodes_to_keep(graph, max_nodes)
     dropped = graph.num_nodes - len(nodes)
     if dropped:
