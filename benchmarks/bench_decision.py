@@ -13,7 +13,11 @@ state's Dijkstra is shared by every policy). The learned policy's time is its ``
 action set (the same as EM's), exploration graph, encoding and forward pass, with the
 shipped actor if ``policies/buildings_distill/actor.pt`` exists, else a randomly initialised
 actor of the default model size (the output says which); the forward pass of a
-hidden-1000 actor is timed as well. One torch thread.
+hidden-1000 actor is timed as well. ``ms_learned_reference`` is the same decision by the
+first implementation (``LearnedPolicy(reference=True)``: candidates' revisits one path at a
+time, two landmark fusions from full distance matrices, padding to ``graph.max_nodes``),
+``em_over_learned`` EM's time over the fast path's. Real states (street, garage):
+``benchmarks/bench_decision_real.py``. One torch thread.
 
     python benchmarks/bench_decision.py [--quick | --smoke]
 """
@@ -30,7 +34,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine, parse_args, time_call  # noqa: E402
+from common import emit, machine, new_observation, parse_args, time_call  # noqa: E402
 
 import torch  # noqa: E402
 
@@ -223,19 +227,24 @@ def measure(n_poses: int, n_candidates: int, setup: BenchSetup, actor: GraphActo
     em = EMPlanner(PolicyConfig(name="em"), planning)
     nearest = NearestFrontier()
     learned = LearnedPolicy(PolicyConfig(name="learned"), planning, graph=graph, actor=actor)
+    reference = LearnedPolicy(PolicyConfig(name="learned"), planning, graph=graph, actor=actor, reference=True)
 
     ms_em = 1e3 * time_call(lambda: em.choose(state), setup.repeats)
     ms_nearest = 1e3 * time_call(lambda: nearest.choose(state), 1000)
-    ms_learned = 1e3 * time_call(lambda: learned.choose(state), max(setup.repeats, 3))
+    ms_learned_reference = 1e3 * time_call(new_observation(lambda: reference.choose(state)), max(setup.repeats, 3))
+    ms_learned = 1e3 * time_call(new_observation(lambda: learned.choose(state)), max(setup.repeats, 3))
     parts = dict(learned.last_ms)
+    same_choice = learned.choose(state) == reference.choose(state)
     encoded = encode(learned.last_graph, graph.max_nodes)
-    ms_paper = 1e3 * time_call(lambda: choose_row(paper_actor, encoded), max(setup.repeats, 3))
+    ms_paper = 1e3 * time_call(new_observation(lambda: choose_row(paper_actor, encoded)), max(setup.repeats, 3))
     evaluation = em.last_evaluation
     return {"poses": n_poses, "candidates": len(state.candidates), "ms_em": ms_em,
             "path_m": float(np.mean(evaluation.lengths)),
             "ms_nearest": ms_nearest, "loops": int(np.count_nonzero(evaluation.loops)),
             "em_choice_is_nearest": bool(evaluation.chosen == state.nearest),
-            "ms_learned": ms_learned, "ms_learned_actions": parts["actions"], "ms_learned_graph": parts["graph"],
+            "ms_learned": ms_learned, "ms_learned_reference": ms_learned_reference,
+            "em_over_learned": ms_em / ms_learned, "same_choice": same_choice,
+            "ms_learned_actions": parts["actions"], "ms_learned_graph": parts["graph"],
             "ms_learned_forward": parts["forward"], "ms_learned_forward_paper": ms_paper,
             "graph_nodes": learned.last_graph.num_nodes}
 
@@ -256,18 +265,21 @@ def growth(rows: list[dict]) -> dict:
             "em_largest_over_smallest": round(largest["ms_em"] / smallest["ms_em"], 1),
             "em_ms_per_candidate_at_largest": round(largest["ms_em"] / largest["candidates"], 1),
             "learned_largest_over_smallest": round(largest["ms_learned"] / smallest["ms_learned"], 1),
-            "em_over_learned_at_largest": round(largest["ms_em"] / largest["ms_learned"], 1)}
+            "em_over_learned_at_largest": round(largest["ms_em"] / largest["ms_learned"], 1),
+            "em_over_learned_min": round(min(r["em_over_learned"] for r in rows), 2),
+            "em_over_learned_median": round(float(np.median([r["em_over_learned"] for r in rows])), 2)}
 
 
 def print_table(rows: list[dict]) -> None:
     print(f"{'poses':>6} {'cands':>6} {'path m':>7} {'loops':>6} {'ms EM':>9} {'ms/cand':>8} "
           f"{'ms nearest':>11} {'EM=nearest':>11} {'ms learned':>11} {'(actions':>9} {'graph':>7} "
-          f"{'forward)':>9} {'fwd h1000':>10}")
+          f"{'forward)':>9} {'fwd h1000':>10} {'ms ref':>7} {'EM/learned':>10}")
     for r in rows:
         print(f"{r['poses']:>6} {r['candidates']:>6} {r['path_m']:>7.1f} {r['loops']:>6} {r['ms_em']:>9.1f} "
               f"{r['ms_em'] / r['candidates']:>8.1f} {r['ms_nearest']:>11.4f} "
               f"{str(r['em_choice_is_nearest']):>11} {r['ms_learned']:>11.1f} {r['ms_learned_actions']:>9.1f} "
-              f"{r['ms_learned_graph']:>7.1f} {r['ms_learned_forward']:>9.1f} {r['ms_learned_forward_paper']:>10.1f}")
+              f"{r['ms_learned_graph']:>7.1f} {r['ms_learned_forward']:>9.1f} {r['ms_learned_forward_paper']:>10.1f} "
+              f"{r['ms_learned_reference']:>7.1f} {r['em_over_learned']:>10.1f}")
 
 
 def main() -> None:
@@ -288,12 +300,14 @@ def main() -> None:
     summary = growth(rows)
     print("growth:", summary)
     rounded = {key: [round(r[key], 2) for r in rows] for key in
-               ("ms_learned", "ms_learned_actions", "ms_learned_graph", "ms_learned_forward", "ms_learned_forward_paper")}
+               ("ms_learned", "ms_learned_reference", "em_over_learned", "ms_learned_actions", "ms_learned_graph",
+                "ms_learned_forward", "ms_learned_forward_paper")}
     emit({"benchmark": "decision", "quick": args.quick, "smoke": args.smoke,
           "poses": [r["poses"] for r in rows], "candidates": [r["candidates"] for r in rows],
           "ms_em": [round(r["ms_em"], 2) for r in rows],
           "ms_nearest": [round(r["ms_nearest"], 5) for r in rows],
-          **rounded, "graph_nodes": [r["graph_nodes"] for r in rows], "learned_actor": actor_source,
+          **rounded, "same_choice": all(r["same_choice"] for r in rows),
+          "graph_nodes": [r["graph_nodes"] for r in rows], "learned_actor": actor_source,
           "features": features,
           "loop_candidates": [r["loops"] for r in rows],
           "growth": summary, "machine": machine()})

@@ -27,6 +27,17 @@ def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:
     return (time.perf_counter() - start) / repeats
 
 
+def new_observation(fn: Callable[[], Any]) -> Callable[[], Any]:
+    """``fn`` as on a new decision: the g-U-Net's cached input level (kept for the critic
+    reading the actor's observation) forgotten first, so a repeat packs its graph again."""
+    from explore_rl.models.graph_unet import INPUT_LEVELS
+
+    def call() -> Any:
+        INPUT_LEVELS.clear()
+        return fn()
+    return call
+
+
 def machine() -> dict:
     """What the figures were measured on, including how busy the machine was (1-min load)."""
     return {"cpus": os.cpu_count(), "python": platform.python_version(), "machine": platform.machine(),

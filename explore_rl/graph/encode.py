@@ -69,20 +69,39 @@ def nodes_to_keep(graph: ExplorationGraph, max_nodes: int) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
-def encode(graph: ExplorationGraph, max_nodes: int) -> EncodedGraph:
-    """Padded arrays of ``graph`` with ``N = max_nodes`` rows."""
+def encode(graph: ExplorationGraph, max_nodes: int, compact: bool = False) -> EncodedGraph:
+    """Padded arrays of ``graph`` with ``N = max_nodes`` rows (what TorchRL's fixed specs
+    need). ``compact``: the same nodes (dropped ones too) with no padding rows, ``N`` = the
+    nodes kept -- for one decision at inference, where the g-U-Net's outputs on real rows
+    do not depend on the padding (it packs the real nodes; tests/planning/test_learned.py
+    compares the logits) and padding buys nothing."""
     nodes = nodes_to_keep(graph, max_nodes)
     dropped = graph.num_nodes - len(nodes)
     if dropped:
         log.debug("exploration graph of %d nodes: dropped %d far poses to fit graph.max_nodes=%d",
                   graph.num_nodes, dropped, max_nodes)
     k = len(nodes)
-    x = np.zeros((max_nodes, graph.features.shape[1]), dtype=np.float32)
+    rows = k if compact else max_nodes
+    x = np.zeros((rows, graph.features.shape[1]), dtype=np.float32)
     x[:k] = graph.features[nodes]
-    adj = np.zeros((max_nodes, max_nodes), dtype=np.float32)
-    adj[:k, :k] = graph.adjacency()[np.ix_(nodes, nodes)]
-    node_mask = np.zeros(max_nodes, dtype=bool)
+    adj = np.zeros((rows, rows), dtype=np.float32)
+    adj[:k, :k] = kept_adjacency(graph, nodes)
+    node_mask = np.zeros(rows, dtype=bool)
     node_mask[:k] = True
-    action_mask = np.zeros(max_nodes, dtype=bool)
+    action_mask = np.zeros(rows, dtype=bool)
     action_mask[:k] = graph.candidate[nodes] >= 0
     return EncodedGraph(x, adj, node_mask, action_mask, nodes, dropped)
+
+
+def kept_adjacency(graph: ExplorationGraph, nodes: np.ndarray) -> np.ndarray:
+    """``graph.adjacency()[np.ix_(nodes, nodes)]`` for sorted ``nodes``, from the edges
+    between kept nodes (no dense ``n x n`` of the whole graph first)."""
+    row = np.full(graph.num_nodes, -1)
+    row[nodes] = np.arange(len(nodes))
+    adj = np.zeros((len(nodes), len(nodes)))
+    if len(graph.edges):
+        i, j = row[graph.edges[:, 0]], row[graph.edges[:, 1]]
+        kept = (i >= 0) & (j >= 0)
+        adj[i[kept], j[kept]] = graph.weights[kept]
+        adj[j[kept], i[kept]] = graph.weights[kept]
+    return adj

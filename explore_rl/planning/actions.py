@@ -19,7 +19,13 @@ import numpy as np
 
 from explore_rl.grid import GridSpec
 from explore_rl.planning.config import ActionSetConfig, RevisitConfig
-from explore_rl.planning.revisits import Revisit, predict_revisits, sample_path
+from explore_rl.planning.revisits import (
+    Revisit,
+    predict_revisits,
+    predict_revisits_of_paths,
+    predict_revisits_reference,
+    sample_path,
+)
 
 if TYPE_CHECKING:
     from explore_rl.state import ExplorationState
@@ -58,21 +64,47 @@ def predict_path(path_xy: np.ndarray, keyframe_xy: np.ndarray, keyframe_travel: 
 
 
 def predict_candidate_paths(state: ExplorationState, revisits: RevisitConfig) -> list[PathPrediction]:
-    """:func:`predict_path` for every candidate of ``state`` (keyframe estimates read once)."""
+    """:func:`predict_path` for every candidate of ``state``, all at once
+    (:func:`~explore_rl.planning.revisits.predict_revisits_of_paths`: one KD-tree query,
+    the paths' shared segments tested once; the same answers as one path at a time,
+    :func:`predict_candidate_paths_reference`)."""
+    session = state.session
+    keyframe_xy, keyframe_travel, blocked, spacing = _keyframe_inputs(state)
+    samples = [sample_path(c.path, spacing) for c in state.candidates]
+    found = predict_revisits_of_paths([poses[:, :2] for poses, _ in samples], keyframe_xy, keyframe_travel,
+                                      float(state.travel), blocked, session.occupancy.grid, revisits,
+                                      [travel for _, travel in samples])
+    return [PathPrediction(poses, travel, revisits_of) for (poses, travel), revisits_of in zip(samples, found)]
+
+
+def predict_candidate_paths_reference(state: ExplorationState, revisits: RevisitConfig) -> list[PathPrediction]:
+    """:func:`predict_path` for every candidate of ``state``, one at a time, as first
+    written (:func:`~explore_rl.planning.revisits.predict_revisits_reference`)."""
+    keyframe_xy, keyframe_travel, blocked, spacing = _keyframe_inputs(state)
+    predictions = []
+    for candidate in state.candidates:
+        poses, travel = sample_path(candidate.path, spacing)
+        found = predict_revisits_reference(poses[:, :2], keyframe_xy, keyframe_travel, float(state.travel), blocked,
+                                           state.session.occupancy.grid, revisits, path_travel=travel)
+        predictions.append(PathPrediction(poses, travel, found))
+    return predictions
+
+
+def _keyframe_inputs(state: ExplorationState) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Keyframe estimates (xy) and travel, the known-occupied cells and the keyframe spacing."""
     session = state.session
     keyframe_xy = session.graph.poses_se2()[:, :2]
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
-    blocked = session.occupancy.known_occupied
-    spacing = float(session.config.keyframe_distance)
-    return [predict_path(c.path, keyframe_xy, keyframe_travel, float(state.travel), blocked,
-                         session.occupancy.grid, revisits, spacing) for c in state.candidates]
+    return keyframe_xy, keyframe_travel, session.occupancy.known_occupied, float(session.config.keyframe_distance)
 
 
 def select_actions(state: ExplorationState, config: ActionSetConfig,
-                   revisits: RevisitConfig) -> list[Action]:
+                   revisits: RevisitConfig, reference: bool = False) -> list[Action]:
     """The action set of ``state``: nearest first, then by path length, at most
-    ``config.max_frontiers`` (the nearest is always in it)."""
-    predictions = predict_candidate_paths(state, revisits)
+    ``config.max_frontiers`` (the nearest is always in it). ``reference``: predict the
+    candidates' paths one at a time (the same set, slower; kept to check and time against)."""
+    predict = predict_candidate_paths_reference if reference else predict_candidate_paths
+    predictions = predict(state, revisits)
     by_length = np.argsort([c.length for c in state.candidates], kind="stable")
     if config.kind == "nearest":
         chosen = list(by_length)

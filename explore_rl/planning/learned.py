@@ -16,15 +16,24 @@ fuses only the observations of those landmarks, from the keyframes within sensor
 in keyframe order and with the same observation model and covariance-intersection kernel
 as the full map (:class:`~explore_rl.planning.em.Observations`), so the graph is the same
 (tests/planning/test_learned.py compares it with the environment's on real states).
+
+**Fast path** (issue 24: decide >= 5x faster than EM; ``benchmarks/bench_decision_real.py``):
+every candidate's revisits predicted at once (:func:`~explore_rl.planning.actions.predict_candidate_paths`),
+one fusion for the frontiers' landmarks and the extended set's, the pairs within sensor
+range from a KD-tree (:func:`pairs_in_range`), and the encoding padded only to the graph's
+nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
+implementation stays as ``LearnedPolicy(reference=True)``; tests compare both on real
+states (same graph, same frontier, logits within 1e-5).
 """
 
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 import torch
+from scipy.spatial import cKDTree
 
 from explore_rl.graph.config import GraphConfig
 from explore_rl.graph.encode import EncodedGraph, encode
@@ -49,14 +58,20 @@ if TYPE_CHECKING:
     from explore_rl.state import ExplorationState
 
 
+# (pose_xy (P, 2), landmark_xy (L, 2), radius) -> (pose index, landmark index) within radius
+PairFinder = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
+# relative and absolute slack of the KD-tree's radius over the exact test (which is applied after)
+KD_MARGIN = 1e-9
+
+
 def landmark_observations(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray,
-                          landmarks: np.ndarray) -> Observations:
+                          landmarks: np.ndarray, pairs: PairFinder | None = None) -> Observations:
     """The observations of ``landmarks`` only, exactly as ``vmap.visible_pairs`` would
     list them among all pairs: within ``sensor_range`` (same distance expression) and in
-    line of sight (same test and parameters), in pose order."""
+    line of sight (same test and parameters), in pose order. ``pairs``: how the pairs in
+    range are found (default :func:`pairs_in_range`)."""
     config = vmap.config
-    dist = np.linalg.norm(vmap.landmark_xy[landmarks][None, :, :] - poses[:, None, :2], axis=-1)
-    pose_idx, slot = np.nonzero(dist <= config.sensor_range)
+    pose_idx, slot = (pairs or pairs_in_range)(poses[:, :2], vmap.landmark_xy[landmarks], config.sensor_range)
     landmark_idx = landmarks[slot]
     visible = line_of_sight(poses[pose_idx, :2], vmap.landmark_xy[landmark_idx], blocked, vmap.grid,
                             config.los_step_fraction, end_box=config.cell_size,
@@ -64,15 +79,39 @@ def landmark_observations(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarr
     return Observations.of_pairs(vmap, poses, pose_idx[visible], landmark_idx[visible])
 
 
+def pairs_in_range(pose_xy: np.ndarray, landmark_xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(pose, landmark)`` index pairs with ``|landmark - pose| <= radius``, pose-major
+    then landmark order -- ``np.nonzero`` of the full distance matrix, same expression --
+    from the pairs a KD-tree finds within a slightly larger radius (the full ``poses x
+    landmarks`` matrix costs ~10 ms at 500 poses and 1000 landmarks; few pairs are near)."""
+    if len(pose_xy) == 0 or len(landmark_xy) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    near = cKDTree(pose_xy).sparse_distance_matrix(cKDTree(landmark_xy), radius * (1 + KD_MARGIN) + KD_MARGIN,
+                                                   output_type="ndarray")
+    pose_idx, slot = near["i"].astype(np.int64), near["j"].astype(np.int64)
+    keep = np.linalg.norm(landmark_xy[slot] - pose_xy[pose_idx], axis=-1) <= radius
+    pose_idx, slot = pose_idx[keep], slot[keep]
+    order = np.lexsort((slot, pose_idx))
+    return pose_idx[order], slot[order]
+
+
+def pairs_in_range_reference(pose_xy: np.ndarray, landmark_xy: np.ndarray,
+                             radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pairs_in_range` from the full distance matrix (the reference it must equal)."""
+    dist = np.linalg.norm(landmark_xy[None, :, :] - pose_xy[:, None, :], axis=-1)
+    pose_idx, slot = np.nonzero(dist <= radius)
+    return pose_idx.astype(np.int64), slot.astype(np.int64)
+
+
 def landmark_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
-                         landmarks: np.ndarray) -> np.ndarray:
+                         landmarks: np.ndarray, pairs: PairFinder | None = None) -> np.ndarray:
     """``(L, 2, 2)``: the fused covariances of the virtual landmarks ``landmarks`` (unique
     indices, ascending) after every keyframe's observations -- as in the fully fused map
     (each landmark is fused on its own), from their observations alone."""
     prior = vmap.config.prior_std**2 * np.eye(2)  # as VirtualMap.prior_covariances
     fused = np.repeat(prior[None], len(landmarks), axis=0)
     if len(landmarks):
-        observations = landmark_observations(vmap, poses, blocked, landmarks)
+        observations = landmark_observations(vmap, poses, blocked, landmarks, pairs)
         compact = Observations(observations.pose_idx, np.searchsorted(landmarks, observations.landmark_idx),
                                observations.gain, observations.noise)
         fused = compact.fuse(fused, pose_covs)
@@ -80,13 +119,19 @@ def landmark_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
 
 
 def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
-                         frontier_xy: np.ndarray) -> np.ndarray:
+                         frontier_xy: np.ndarray, pairs: PairFinder | None = None) -> np.ndarray:
     """``(F, 2, 2)``: the virtual-landmark covariance of each frontier's cell after every
     keyframe's observations -- ``vmap.frontier_landmark_covariance`` of the fully fused
     map, computed from the frontiers' landmarks alone (the prior outside the map)."""
     index = vmap.landmark_index(np.asarray(frontier_xy, float).reshape(-1, 2))
     landmarks = np.unique(index[index >= 0])
-    fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
+    return covariances_of(vmap, index, landmarks, landmark_covariances(vmap, poses, pose_covs, blocked, landmarks,
+                                                                       pairs))
+
+
+def covariances_of(vmap: VirtualMap, index: np.ndarray, landmarks: np.ndarray, fused: np.ndarray) -> np.ndarray:
+    """``(F, 2, 2)``: the covariance of landmark ``index[f]`` among the ``fused`` ones of
+    ``landmarks`` (ascending, holding every index >= 0); the prior for -1 (outside the map)."""
     covs = np.repeat((vmap.config.prior_std**2 * np.eye(2))[None], len(index), axis=0)
     inside = index >= 0
     covs[inside] = fused[np.searchsorted(landmarks, index[inside])]
@@ -107,30 +152,62 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     """The exploration graph of ``state`` (equal to ``graph_from_state`` with EM's decision
     context; see the module docstring for what is skipped). ``backend`` reads the pose
     marginals as EM's (``planning.em.backend``): one factorisation or one query per pose.
-    ``features=extended`` also fuses the landmarks within sensor range of each frontier
-    (their mean uncertainty is a column), still a small part of the map."""
-    session = state.session
-    poses = session.graph.poses_se2()
-    pose_covs, _ = pose_covariances(session.graph, poses, backend)
-    blocked = session.occupancy.known_occupied
-    frontier_xy = action_frontiers(state, actions)
-    frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy)
+    ``features=extended`` also needs the landmarks within sensor range of each frontier
+    (their mean uncertainty is a column), still a small part of the map: one fusion of the
+    frontiers' landmarks and those together (each landmark is fused on its own, so a
+    frontier's covariance is the same whatever else is fused with it)."""
+    poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
+    index = vmap.landmark_index(frontier_xy)
+    near = (landmarks_near(vmap, frontier_xy, vmap.config.sensor_range) if features == "extended"
+            else np.zeros(0, dtype=np.int64))
+    landmarks = np.union1d(index[index >= 0], near)
+    fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
+    frontier_covs = covariances_of(vmap, index, landmarks, fused)
+    extra = None
+    if features == "extended":
+        extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near],
+                                fused[np.searchsorted(landmarks, near)], vmap.config.sensor_range)
+    return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
+                                factor_edges(state.session.graph.edges), extra)
+
+
+def graph_features_reference(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
+                             backend: str = "fast", features: str = "paper") -> ExplorationGraph:
+    """:func:`graph_features` as first written (the reference the fast path must equal):
+    the frontiers' landmarks and the extended set's landmarks fused separately, pairs
+    in range from the full distance matrix."""
+    poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
+    frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, pairs_in_range_reference)
     extra = None
     if features == "extended":
         landmarks = landmarks_near(vmap, frontier_xy, vmap.config.sensor_range)
-        covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
+        covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, pairs_in_range_reference)
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(session.graph.edges), extra)
+                                factor_edges(state.session.graph.edges), extra)
+
+
+def decision_estimates(state: ExplorationState, actions: list[Action],
+                       backend: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Keyframe estimates ``(K, 3)``, their world-frame marginals ``(K, 3, 3)``, the
+    known-occupied cells and the action frontiers' waypoints ``(F, 2)``."""
+    session = state.session
+    poses = session.graph.poses_se2()
+    pose_covs, _ = pose_covariances(session.graph, poses, backend)
+    return poses, pose_covs, session.occupancy.known_occupied, action_frontiers(state, actions)
+
+
+def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:
+    """The actor's logit of every row of ``encoded`` (0 on padding), no gradients."""
+    with torch.no_grad():
+        return actor(torch.from_numpy(encoded.x)[None], torch.from_numpy(encoded.adj)[None],
+                     torch.from_numpy(encoded.node_mask)[None])[0]
 
 
 def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
     """Row of the most probable action of ``encoded`` (:func:`greedy_row`)."""
-    with torch.no_grad():
-        logits = actor(torch.from_numpy(encoded.x)[None], torch.from_numpy(encoded.adj)[None],
-                       torch.from_numpy(encoded.node_mask)[None])[0]
-    return greedy_row(logits, torch.from_numpy(encoded.action_mask))
+    return greedy_row(actor_logits(actor, encoded), torch.from_numpy(encoded.action_mask))
 
 
 class LearnedPolicy:
@@ -138,14 +215,18 @@ class LearnedPolicy:
 
     ``config.checkpoint``: an actor file (explore_rl/models/actor_file.py) or a training
     checkpoint; by default the shipped policy. A missing or unusable file raises
-    ``CheckpointError`` (a ValueError) with one line naming it.
+    ``CheckpointError`` (a ValueError) with one line naming it. ``reference``: decide by
+    the first implementation (the candidates' paths predicted one at a time,
+    :func:`graph_features_reference`, the encoding padded to ``graph.max_nodes``) -- the
+    same choices, kept to check and time the fast path against.
     """
 
     name = "learned"
 
     def __init__(self, config: PolicyConfig, planning: PlanningConfig, graph: GraphConfig | None = None,
-                 actor: GraphActor | None = None):
+                 actor: GraphActor | None = None, reference: bool = False):
         self.config = config
+        self.reference = reference
         self.planning = planning
         self.actor_file: ActorFile | None = None
         if actor is None:
@@ -168,11 +249,12 @@ class LearnedPolicy:
 
     def choose(self, state: ExplorationState) -> int:
         start = time.perf_counter()
-        actions = select_actions(state, self.planning.actions, self.planning.revisits)
+        actions = select_actions(state, self.planning.actions, self.planning.revisits, self.reference)
         after_actions = time.perf_counter()
-        graph = graph_features(state, actions, self.virtual_map(state.session.occupancy.grid),
-                               self.planning.em.backend, self.features)
-        encoded = encode(graph, self.max_nodes)
+        features = graph_features_reference if self.reference else graph_features
+        graph = features(state, actions, self.virtual_map(state.session.occupancy.grid),
+                         self.planning.em.backend, self.features)
+        encoded = encode(graph, self.max_nodes, compact=not self.reference)
         after_graph = time.perf_counter()
         row = choose_row(self.actor, encoded)
         end = time.perf_counter()

@@ -9,6 +9,7 @@ revisit keeps only its closest predicted pose.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -31,7 +32,7 @@ def cumulative_length(path_xy: np.ndarray) -> np.ndarray:
     """Arc length ``(P,)`` at each vertex of a polyline ``(P, 2)``, starting at 0."""
     path_xy = np.asarray(path_xy, float).reshape(-1, 2)
     seg = np.linalg.norm(np.diff(path_xy, axis=0), axis=1)
-    return np.r_[0.0, np.cumsum(seg)]
+    return np.concatenate(([0.0], np.cumsum(seg)))
 
 
 def sample_path(
@@ -45,26 +46,32 @@ def sample_path(
     (the next segment at a vertex, the last segment at the end).
     """
     pts = np.asarray(path_xy, float).reshape(-1, 2)
-    if len(pts) > 1:
-        keep = np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]
+    if len(pts) > 1:  # (called per candidate per decision: plain concatenate, no np.r_)
+        keep = np.concatenate(([True], np.any(np.diff(pts, axis=0) != 0, axis=1)))
         pts = pts[keep]
     if len(pts) < 2:
         if include_start and len(pts) == 1:
             return np.array([[pts[0, 0], pts[0, 1], 0.0]]), np.zeros(1)
         return np.zeros((0, 3)), np.zeros(0)
-    vertex_s = cumulative_length(pts)
+    direction = np.diff(pts, axis=0)
+    length = np.linalg.norm(direction, axis=1)
+    vertex_s = np.concatenate(([0.0], np.cumsum(length)))  # cumulative_length(pts)
     total = vertex_s[-1]
     s = keyframe_spacing * np.arange(1, int(np.floor(total / keyframe_spacing)) + 1)
-    if len(s) == 0 or not np.isclose(s[-1], total):
-        s = np.r_[s, total]
+    if len(s) == 0 or not _isclose(s[-1], total):
+        s = np.append(s, total)
     if include_start:
-        s = np.r_[0.0, s]
-    seg = np.clip(np.searchsorted(vertex_s, s, side="right") - 1, 0, len(pts) - 2)
-    direction = np.diff(pts, axis=0)
-    unit = direction / np.linalg.norm(direction, axis=1)[:, None]
+        s = np.concatenate(([0.0], s))
+    seg = np.minimum(np.maximum(np.searchsorted(vertex_s, s, side="right") - 1, 0), len(pts) - 2)
+    unit = direction / length[:, None]
     xy = pts[seg] + (s - vertex_s[seg])[:, None] * unit[seg]
     yaw = np.arctan2(unit[seg, 1], unit[seg, 0])
     return np.column_stack([xy, yaw]), s
+
+
+def _isclose(a: float, b: float) -> bool:
+    """``np.isclose(a, b)`` (default tolerances) for two finite scalars, without its overhead."""
+    return bool(abs(a - b) <= 1e-8 + 1e-5 * abs(b))
 
 
 def sample_path_poses(
@@ -99,6 +106,93 @@ def predict_revisits(
     represented by its closest pair. Sorted by keyframe index.
     """
     path_xy = np.asarray(path_xy, float).reshape(-1, 2)
+    if path_travel is None:
+        path_travel = cumulative_length(path_xy)
+    return predict_revisits_of_paths([path_xy], keyframe_xy, keyframe_travel, current_travel, blocked, grid,
+                                     config, [path_travel])[0]
+
+
+def predict_revisits_of_paths(paths_xy: Sequence[np.ndarray], keyframe_xy: np.ndarray, keyframe_travel: np.ndarray,
+                              current_travel: float, blocked: np.ndarray, grid: GridSpec, config: RevisitConfig,
+                              paths_travel: Sequence[np.ndarray]) -> list[list[Revisit]]:
+    """:func:`predict_revisits` of several paths at once (a decision's candidates): one
+    KD-tree query for all their poses and one line-of-sight test per distinct segment --
+    the candidates' paths leave from the same robot pose along one Dijkstra tree, so
+    they share poses, and pairs that qualify for several candidates are tested once. Each
+    path's answer is what :func:`predict_revisits` gives it alone (each pair's tests are
+    its own)."""
+    paths_xy = [np.asarray(p, float).reshape(-1, 2) for p in paths_xy]
+    keyframe_xy = np.asarray(keyframe_xy, float).reshape(-1, 2)
+    counts = np.array([len(p) for p in paths_xy], dtype=np.int64)
+    if counts.sum() == 0 or len(keyframe_xy) == 0:
+        return [[] for _ in paths_xy]
+    all_xy = np.concatenate(paths_xy)
+    all_travel = np.concatenate([np.asarray(t, float).reshape(-1) for t in paths_travel])
+    pose_idx, kf_idx, dist = _pairs_within(all_xy, keyframe_xy, config.r_lc)
+    gap = current_travel + all_travel[pose_idx] - np.asarray(keyframe_travel)[kf_idx]
+    keep = gap > config.min_travel_gap
+    pose_idx, kf_idx, dist = pose_idx[keep], kf_idx[keep], dist[keep]
+    visible = distinct_line_of_sight(all_xy[pose_idx], distinct_ids(all_xy)[pose_idx], kf_idx, keyframe_xy,
+                                     blocked, grid, config.los_step_fraction)
+    pose_idx, kf_idx, dist = pose_idx[visible], kf_idx[visible], dist[visible]
+    owner = np.repeat(np.arange(len(paths_xy)), counts)[pose_idx]
+    path_idx = pose_idx - (np.cumsum(counts) - counts)[owner]
+    found: list[list[Revisit]] = [[] for _ in paths_xy]
+    closest = _closest_per_place(owner, path_idx, kf_idx, dist, len(keyframe_xy), config.merge_keyframe_gap)
+    for path, index, keyframe, distance in zip(*closest):
+        found[path].append(Revisit(int(index), int(keyframe), float(distance)))
+    return found
+
+
+def _closest_per_place(owner: np.ndarray, path_idx: np.ndarray, kf_idx: np.ndarray, dist: np.ndarray,
+                       n_keyframes: int, max_gap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per path (``owner``): each keyframe's closest pair (ties: the earliest path pose),
+    then runs of keyframes with index gaps ``<= max_gap`` merged into their closest pair
+    (ties: the lowest keyframe). Sorted by path, then keyframe. One sort of an integer key
+    and segment minima (a decision holds ~10^5 pairs; a 4-key lexsort took ~10 ms)."""
+    if len(owner) == 0:
+        return owner, path_idx, kf_idx, dist
+    key = owner * n_keyframes + kf_idx
+    order = np.argsort(key, kind="stable")
+    key, path_idx, dist = key[order], path_idx[order], dist[order]
+    first = _group_starts(key != np.roll(key, 1))
+    closest = np.minimum.reduceat(dist, first)
+    tied = dist == np.repeat(closest, np.diff(np.append(first, len(key))))
+    earliest = np.minimum.reduceat(np.where(tied, path_idx, np.iinfo(np.int64).max), first)
+    owner, kf_idx, path_idx, dist = key[first] // n_keyframes, key[first] % n_keyframes, earliest, closest
+    new_run = np.ones(len(owner), dtype=bool)
+    new_run[1:] = (owner[1:] != owner[:-1]) | (kf_idx[1:] - kf_idx[:-1] > max_gap)
+    runs = _group_starts(new_run)
+    closest = np.minimum.reduceat(dist, runs)
+    tied = dist == np.repeat(closest, np.diff(np.append(runs, len(dist))))
+    best = np.minimum.reduceat(np.where(tied, np.arange(len(dist)), len(dist)), runs)
+    return owner[best], path_idx[best], kf_idx[best], dist[best]
+
+
+def _group_starts(new: np.ndarray) -> np.ndarray:
+    """Indices where a group starts (``new``: the row differs from the previous; row 0 always)."""
+    new = new.copy()
+    new[0] = True
+    return np.flatnonzero(new)
+
+
+def distinct_ids(xy: np.ndarray) -> np.ndarray:
+    """``(N,)`` ids of the rows of ``xy (N, 2)``: equal rows, equal ids."""
+    order = np.lexsort((xy[:, 1], xy[:, 0]))
+    ranked = xy[order]
+    new = np.ones(len(xy), dtype=bool)
+    new[1:] = np.any(ranked[1:] != ranked[:-1], axis=1)
+    ids = np.empty(len(xy), dtype=np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids
+
+
+def predict_revisits_reference(path_xy: np.ndarray, keyframe_xy: np.ndarray, keyframe_travel: np.ndarray,
+                               current_travel: float, blocked: np.ndarray, grid: GridSpec, config: RevisitConfig,
+                               path_travel: np.ndarray | None = None) -> list[Revisit]:
+    """:func:`predict_revisits` as first written, one path alone (the reference the
+    paths-at-once version must equal; tests and ``LearnedPolicy(reference=True)``)."""
+    path_xy = np.asarray(path_xy, float).reshape(-1, 2)
     keyframe_xy = np.asarray(keyframe_xy, float).reshape(-1, 2)
     if len(path_xy) == 0 or len(keyframe_xy) == 0:
         return []
@@ -114,6 +208,18 @@ def predict_revisits(
     path_idx, kf_idx, dist = path_idx[visible], kf_idx[visible], dist[visible]
     path_idx, kf_idx, dist = _closest_per_keyframe(path_idx, kf_idx, dist)
     return _merge_runs(path_idx, kf_idx, dist, config.merge_keyframe_gap)
+
+
+def distinct_line_of_sight(start_xy: np.ndarray, start_id: np.ndarray, kf_idx: np.ndarray, keyframe_xy: np.ndarray,
+                           blocked: np.ndarray, grid: GridSpec, step_fraction: float) -> np.ndarray:
+    """:func:`line_of_sight` from each ``start_xy`` to keyframe ``kf_idx``, each distinct
+    (start, keyframe) pair tested once (a segment's test depends on its ends only);
+    ``start_id``: equal for equal starts (:func:`distinct_ids`)."""
+    if len(start_xy) == 0:
+        return np.ones(0, dtype=bool)
+    _, first, inverse = np.unique(start_id * len(keyframe_xy) + kf_idx, return_index=True, return_inverse=True)
+    clear = line_of_sight(start_xy[first], keyframe_xy[kf_idx[first]], blocked, grid, step_fraction)
+    return clear[inverse.reshape(-1)]
 
 
 def _pairs_within(

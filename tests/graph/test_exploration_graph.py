@@ -166,6 +166,23 @@ def test_truncation_drops_far_poses_without_frontier_edges_first(caplog):
     np.testing.assert_array_equal(encoded.x[encoded.action_mask, 3], [1.0, 1.0])
 
 
+@pytest.mark.parametrize("max_nodes", [40, 20])
+def test_compact_encoding_is_the_padded_one_without_its_padding_rows(max_nodes):
+    """``compact=True``: the padded encoding's real rows (the same kept nodes when the
+    graph is truncated too), and nothing else."""
+    graph = long_graph(30)  # 32 nodes
+    padded, compact = encode(graph, max_nodes), encode(graph, max_nodes, compact=True)
+    k = len(padded.nodes)
+    assert len(compact.x) == k == min(32, max_nodes) and compact.adj.shape == (k, k)
+    np.testing.assert_array_equal(compact.nodes, padded.nodes)
+    assert compact.dropped == padded.dropped
+    np.testing.assert_array_equal(compact.x, padded.x[:k])
+    np.testing.assert_array_equal(compact.adj, padded.adj[:k, :k])
+    np.testing.assert_array_equal(compact.node_mask, padded.node_mask[:k])
+    np.testing.assert_array_equal(compact.action_mask, padded.action_mask[:k])
+    assert compact.node_mask.all() and compact.x.dtype == compact.adj.dtype == np.float32
+
+
 def test_truncation_logs_and_drops_linked_poses_only_when_it_must(caplog):
     graph = long_graph(30)
     with caplog.at_level("WARNING", logger="explore_rl.graph.encode"):

@@ -5,10 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from explore_rl.config import load_config
 from explore_rl.planning.em import make_decision_context
-from explore_rl.planning.learned import LearnedPolicy, frontier_covariances, graph_features
+from explore_rl.planning.learned import (
+    LearnedPolicy,
+    actor_logits,
+    frontier_covariances,
+    graph_features,
+    pairs_in_range,
+    pairs_in_range_reference,
+)
 from explore_rl.planning.policies import PolicyConfig, make_policy
 from explore_rl.planning.virtual_map import VirtualMap
 from explore_rl.runner import Explorer
@@ -99,3 +107,46 @@ def test_extended_features_are_the_environments_too(tmp_path):
         assert graph.features.shape[1] == 10
         np.testing.assert_allclose(graph.features, decision.graph.features, rtol=1e-9, atol=1e-12)
         assert policy.choose(state) == env_choice
+
+
+def test_the_fast_path_decides_as_the_reference_on_real_states(tmp_path):
+    """The fast decision path (candidates' revisits at once, one landmark fusion, KD-tree
+    pairs, the encoding padded only to the graph's nodes) against the first implementation
+    on every decision of an office episode, extended features: the same graph, the same
+    frontier, the real rows' logits within 1e-5."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+    policy_config = PolicyConfig("learned", checkpoint=str(path))
+    fast = LearnedPolicy(policy_config, config.planning, graph=config.graph)
+    reference = LearnedPolicy(policy_config, config.planning, graph=config.graph, reference=True)
+    nodes = []
+    for decision, _ in env_decisions(config, learner, steps=6):
+        state = decision.state
+        assert fast.choose(state) == reference.choose(state)
+        np.testing.assert_allclose(fast.last_graph.features, reference.last_graph.features, rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(fast.last_graph.edges, reference.last_graph.edges)
+        n = fast.last_graph.num_nodes
+        assert len(fast.last_encoded.x) == n < len(reference.last_encoded.x) == config.graph.max_nodes
+        logits = actor_logits(fast.actor, fast.last_encoded)
+        torch.testing.assert_close(logits, actor_logits(reference.actor, reference.last_encoded)[:n],
+                                   rtol=0.0, atol=1e-5)
+        nodes.append(n)
+    assert max(nodes) > 30
+
+
+def test_pairs_in_range_equal_the_full_distance_matrix_at_the_boundary():
+    """KD-tree pairs = ``np.nonzero`` of the full matrix, in the same order, including
+    landmarks exactly at the radius (kept) and one ulp beyond it (not)."""
+    rng = np.random.default_rng(0)
+    poses = rng.uniform(0.0, 20.0, (300, 2))
+    radius = 3.0
+    on_circle = poses[:40] + np.array([radius, 0.0])
+    beyond = poses[40:80] + np.array([np.nextafter(radius, np.inf), 0.0])
+    landmarks = np.vstack([rng.uniform(0.0, 20.0, (500, 2)), on_circle, beyond])
+    got = pairs_in_range(poses, landmarks, radius)
+    expected = pairs_in_range_reference(poses, landmarks, radius)
+    assert len(expected[0]) > 1000
+    for a, b in zip(got, expected):
+        np.testing.assert_array_equal(a, b)
+    exact = np.linalg.norm(landmarks[expected[1]] - poses[expected[0]], axis=-1) == radius
+    assert exact.sum() > 0  # the boundary case is exercised

@@ -6,11 +6,16 @@ import numpy as np
 import pytest
 
 from explore_rl.grid import GridSpec
+from explore_rl.mapping.visibility import line_of_sight
 from explore_rl.planning.config import RevisitConfig
 from explore_rl.planning.revisits import (
     Revisit,
     cumulative_length,
+    distinct_ids,
+    distinct_line_of_sight,
     predict_revisits,
+    predict_revisits_of_paths,
+    predict_revisits_reference,
     sample_path,
     sample_path_poses,
 )
@@ -145,3 +150,46 @@ def test_sample_path_degenerate():
     )
     poses = sample_path_poses(np.array([[0.0, 0.0], [0.0, -1.0]]), 0.5)
     np.testing.assert_allclose(poses, [[0, -0.5, -np.pi / 2], [0, -1.0, -np.pi / 2]])
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+def test_paths_at_once_equal_each_path_alone(seed):
+    """A decision's candidates: random walks branching off one shared stretch from the
+    robot, a wall across part of the map, keyframes on a 0.1 m lattice (equal distances:
+    the tie rules count). :func:`predict_revisits_of_paths` gives every path what the
+    first implementation gives it alone (empty paths too)."""
+    rng = np.random.default_rng(seed)
+    kf_xy = np.round(np.clip(np.cumsum(rng.normal(0, 0.4, (120, 2)), axis=0) + 5.0, 0.5, 9.5), 1)
+    kf_travel = np.r_[0, np.cumsum(np.linalg.norm(np.diff(kf_xy, axis=0), axis=1))]
+    blocked = FREE.copy()
+    blocked[48:50, 20:70] = True
+    trunk = sample_path_poses(np.array([kf_xy[-1], [5.0, 5.2], [3.0, 3.0]]), 0.5, include_start=True)[:, :2]
+    paths = [np.vstack([trunk[: rng.integers(2, len(trunk) + 1)],
+                        np.round(np.clip(trunk[-1] + np.cumsum(rng.normal(0, 0.5, (15, 2)), axis=0), 0.2, 9.8), 1)])
+             for _ in range(8)] + [np.zeros((0, 2))]
+    travels = [cumulative_length(p) for p in paths]
+    current = kf_travel[-1]
+    together = predict_revisits_of_paths(paths, kf_xy, kf_travel, current, blocked, GRID, CFG, travels)
+    alone = [predict_revisits_reference(p, kf_xy, kf_travel, current, blocked, GRID, CFG, path_travel=t)
+             for p, t in zip(paths, travels)]
+    assert together == alone
+    assert [predict_revisits(p, kf_xy, kf_travel, current, blocked, GRID, CFG, path_travel=t)
+            for p, t in zip(paths, travels)] == alone
+    assert sum(len(found) for found in alone) > 8 and alone[-1] == []
+
+
+def test_distinct_line_of_sight_tests_each_segment_once_with_the_same_answers():
+    rng = np.random.default_rng(3)
+    kf_xy = rng.uniform(0.0, 10.0, (30, 2))
+    starts = rng.uniform(0.0, 10.0, (40, 2))
+    pick = rng.integers(0, 40, 200)
+    kf_idx = rng.integers(0, 30, 200)
+    blocked = FREE.copy()
+    blocked[30:70, 50] = True
+    np.testing.assert_array_equal(distinct_ids(starts[pick]) == distinct_ids(starts[pick])[:, None],
+                                  pick == pick[:, None])
+    got = distinct_line_of_sight(starts[pick], distinct_ids(starts[pick]), kf_idx, kf_xy, blocked, GRID,
+                                 CFG.los_step_fraction)
+    expected = line_of_sight(starts[pick], kf_xy[kf_idx], blocked, GRID, CFG.los_step_fraction)
+    np.testing.assert_array_equal(got, expected)
+    assert 0 < expected.sum() < len(expected)

@@ -1,0 +1,23 @@
+"""Smoke test of benchmarks/bench_decision_real.py: it runs (``--smoke``: two office
+decisions, model front end) and its JSON last line holds the figures RESULTS.md quotes.
+Times are not checked; the fast learned path must have agreed with the reference."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.benchmarks.smoke import run_script
+
+KEYS = ["ms_em", "ms_learned", "ms_learned_reference", "em_over_learned", "em_over_learned_decide",
+        "em_over_learned_median", "ms_state", "same_choice", "max_logit_diff", "ms_part_actions",
+        "ms_part_marginals", "ms_part_landmarks", "ms_part_forward", "ms_part_forward_reference", "scenes", "rows"]
+
+
+def test_bench_decision_real_smoke(tmp_path: Path) -> None:
+    result = run_script("benchmarks/bench_decision_real.py", "--smoke", cwd=tmp_path)
+    assert result["smoke"] is True
+    missing = [key for key in KEYS if key not in result]
+    assert not missing, f"JSON last line lacks {missing} (has {sorted(result)})"
+    assert result["states"] == len(result["rows"]) == 2 and set(result["scenes"]) == {"office"}
+    assert result["same_choice"] is True and result["max_logit_diff"] <= 1e-5
+    assert result["ms_em"] > 0 and result["ms_learned"] > 0 and result["ms_learned_reference"] > 0
