@@ -11,7 +11,7 @@ path), short ones into new space do not (the covariance-propagation shortcut). A
 policies see the same state; nearest frontier's time is its ``choose`` alone (the
 state's Dijkstra is shared by every policy). The learned policy's time is its ``choose``:
 action set (the same as EM's), exploration graph, encoding and forward pass, with the
-shipped actor if ``policies/buildings_distill/actor.pt`` exists, else a randomly initialised
+shipped actor if ``policies/buildings_office_distill/actor.pt`` exists, else a randomly initialised
 actor of the default model size (the output says which); the forward pass of a
 hidden-1000 actor is timed as well. ``ms_learned_reference`` is the same decision by the
 first implementation (``LearnedPolicy(reference=True)``: candidates' revisits one path at a

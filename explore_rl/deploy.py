@@ -5,7 +5,7 @@ exploration state with plain arrays, get back the frontier to visit next::
 
     from explore_rl.deploy import load_policy
 
-    policy = load_policy("policies/buildings_distill/actor.pt")   # or an exported "actor.pt2"
+    policy = load_policy("policies/buildings_office_distill/actor.pt")   # or an exported "actor.pt2"
     k = policy.choose(
         pose_xy=poses[:, :2],              # (K, 2) keyframe estimates, oldest first, world frame (m)
         pose_cov=covs,                     # (K, 2, 2) world-frame xy marginals (or (K, 3, 3) x, y, yaw)
@@ -189,7 +189,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                     "policy=learned, explore-rl-eval and explore_rl.deploy), optionally also its "
                     "torch.export program.")
     parser.add_argument("checkpoint", help="a training checkpoint (RUN/checkpoints/best.pt) or an actor file")
-    parser.add_argument("out", help="the actor file to write, e.g. policies/buildings_distill/actor.pt")
+    parser.add_argument("out", help="the actor file to write, e.g. policies/buildings_office_distill/actor.pt")
     parser.add_argument("--program", help="also write the torch.export program here (e.g. actor.pt2)")
     args = parser.parse_args(argv)
     try:
