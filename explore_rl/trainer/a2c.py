@@ -246,7 +246,22 @@ class Learner:
 
 
 def make_collector(config: Config, actor, replays: list | None = None, start_frame: int = 0):
-    """The TorchRL collector of ``collector.workers`` env workers (see the module docstring).
+    """The TorchRL collector of ``collector.workers`` env workers (see the module docstring)
+    over :func:`env_factories` (``replays``, ``start_frame``: see there)."""
+    factories = env_factories(config, replays, start_frame)
+    steps = config.algo.steps_per_update
+    if config.collector.backend == "ray":
+        from explore_rl.trainer.ray_backend import make_ray_collector  # ray is an optional extra
+
+        return make_ray_collector(factories, actor, config.collector, **collector_kwargs(len(factories) * steps))
+    if len(factories) == 1:
+        return local_collector(factories[0], actor, steps)
+    return MultiSyncCollector(factories, actor, cat_results="stack", auto_register_policy_transforms=False,
+                              **collector_kwargs(len(factories) * steps))
+
+
+def env_factories(config: Config, replays: list | None = None, start_frame: int = 0) -> list[EnvFactory]:
+    """One env factory per worker of ``collector.workers``.
 
     ``replays[i]``: the episode worker ``i`` resumes (``EnvFactory.replay``), or None.
     Workers in other processes (``workers > 1``, Ray) seed their action sampling from
@@ -256,21 +271,23 @@ def make_collector(config: Config, actor, replays: list | None = None, start_fra
     it re-seeds and resets every env, which would undo the per-worker env seeds and the
     replayed episodes.
     """
-    workers, steps = config.collector.workers, config.algo.steps_per_update
+    workers = config.collector.workers
     replays = replays or [None] * workers
     own_processes = workers > 1 or config.collector.backend == "ray"
-    factories = [EnvFactory(config, worker=i, replay=replays[i],
-                            torch_seed=policy_seed(config.seed, i, start_frame) if own_processes else None)
-                 for i in range(workers)]
-    common = dict(frames_per_batch=workers * steps, total_frames=-1, exploration_type=ExplorationType.RANDOM)
-    if config.collector.backend == "ray":
-        from explore_rl.trainer.ray_backend import make_ray_collector  # ray is an optional extra
+    return [EnvFactory(config, worker=i, replay=replays[i],
+                       torch_seed=policy_seed(config.seed, i, start_frame) if own_processes else None)
+            for i in range(workers)]
 
-        return make_ray_collector(factories, actor, config.collector, **common)
-    common["auto_register_policy_transforms"] = False  # our env needs no policy transforms
-    if workers == 1:
-        return Collector(factories[0], actor, **common)
-    return MultiSyncCollector(factories, actor, cat_results="stack", **common)
+
+def collector_kwargs(frames_per_batch: int) -> dict:
+    """What every collector of the trainer shares: sampled actions, no frame budget of its own."""
+    return dict(frames_per_batch=frames_per_batch, total_frames=-1, exploration_type=ExplorationType.RANDOM)
+
+
+def local_collector(factory: EnvFactory, actor, steps: int) -> Collector:
+    """TorchRL's ``Collector`` of one env in this process, ``steps`` decisions per batch."""
+    return Collector(factory, actor, auto_register_policy_transforms=False,  # our env needs none
+                     **collector_kwargs(steps))
 
 
 def as_workers_by_time(batch: TensorDictBase, workers: int) -> TensorDictBase:
