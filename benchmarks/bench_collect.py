@@ -14,8 +14,11 @@ same episodes (``same_actions`` checks it):
 ``dps_1``, ``dps_2`` are decisions/s over the timed batches, ``scaling`` their ratio.
 ``sync_bound``: the scaling a synchronous collector could reach on this work if two
 workers ran as fast as one, from the 1-worker per-batch times (each batch waits for the
-slower worker). The learner's update (timed on each 2-worker batch, its weights not sent
-to the collectors so that the work stays the same) shows the collection/update split.
+slower worker). ``cpu_2``: during the 2-worker batches, the CPU fraction of this process
+(the learner's; it should idle) and of each worker, and each worker's busy threads (more
+than one would mean torch/BLAS/GTSAM threads oversubscribing the cores). The learner's
+update (timed on each 2-worker batch, its weights not sent to the collectors so that the
+work stays the same) shows the collection/update split.
 
     python benchmarks/bench_collect.py [--quick | --smoke]
 """
@@ -23,6 +26,7 @@ to the collectors so that the work stays the same) shows the collection/update s
 from __future__ import annotations
 
 import copy
+import os
 import sys
 import time
 from pathlib import Path
@@ -40,17 +44,38 @@ from explore_rl.trainer.a2c import (Learner, as_workers_by_time, env_factories, 
 WORKERS = 2
 
 
-def timed_batches(collector, batches: int) -> tuple[list, list[float]]:
-    """A warm-up batch, then ``batches`` batches and the seconds each took."""
+def thread_cpu_s(pid: int) -> list[float]:
+    """CPU seconds (user + system) of each thread of process ``pid`` (Linux ``/proc``; [] elsewhere)."""
+    tasks = Path(f"/proc/{pid}/task")
+    if not tasks.is_dir():
+        return []
+    ticks = os.sysconf("SC_CLK_TCK")
+    fields = [(tasks / tid / "stat").read_text().rsplit(")", 1)[1].split() for tid in os.listdir(tasks)]
+    return [(int(f[11]) + int(f[12])) / ticks for f in fields]
+
+
+def timed_batches(collector, batches: int) -> tuple[list, list[float], dict]:
+    """A warm-up batch, then ``batches`` batches and the seconds each took, and where the
+    CPU went meanwhile: this process's CPU fraction, and per worker process (if any) its
+    CPU fraction and how many of its threads did > 5 % of its work (oversubscription check)."""
     iterator = iter(collector)
     next(iterator)
+    pids = [proc.pid for proc in getattr(collector, "procs", [])]
+    cpu_before, main_before, start_all = [thread_cpu_s(pid) for pid in pids], time.process_time(), time.perf_counter()
     data, seconds = [], []
     for _ in range(batches):
         start = time.perf_counter()
         data.append(next(iterator))
         seconds.append(time.perf_counter() - start)
+    wall = time.perf_counter() - start_all
+    usage = {"main_cpu_fraction": round((time.process_time() - main_before) / wall, 3)}
+    cpu_after = [thread_cpu_s(pid) for pid in pids]
+    if pids and all(cpu_after):
+        work = [sum(after) - sum(before) for before, after in zip(cpu_before, cpu_after)]
+        usage["worker_cpu_fraction"] = [round(w / wall, 3) for w in work]
+        usage["worker_busy_threads"] = [sum(t > 0.05 * w for t in after) for w, after in zip(work, cpu_after)]
     collector.shutdown()
-    return data, seconds
+    return data, seconds, usage
 
 
 def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[float]]]:
@@ -58,22 +83,22 @@ def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[fl
     ``[workers, batches, T]`` and each worker's per-batch seconds."""
     actions, seconds = [], []
     for factory in env_factories(config):
-        data, times = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
+        data, times, _ = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
         actions.append(torch.stack([batch["action"] for batch in data]))
         seconds.append(times)
     return torch.stack(actions), seconds
 
 
-def two_workers(config, policy, learner: Learner, batches: int) -> tuple[torch.Tensor, list[float], float]:
+def two_workers(config, policy, learner: Learner, batches: int) -> tuple[torch.Tensor, list[float], dict, float]:
     """The trainer's 2-worker collector: the actions ``[workers, batches, T]``, per-batch
-    seconds, and ms per learner update on those batches."""
-    data, seconds = timed_batches(make_collector(config, policy), batches)
+    seconds, CPU use, and ms per learner update on those batches."""
+    data, seconds, usage = timed_batches(make_collector(config, policy), batches)
     data = [as_workers_by_time(batch, WORKERS) for batch in data]
     start = time.perf_counter()
     for batch in data:
         learner.update(batch)
     ms_update = 1e3 * (time.perf_counter() - start) / batches
-    return torch.stack([batch["action"] for batch in data], dim=1), seconds, ms_update
+    return torch.stack([batch["action"] for batch in data], dim=1), seconds, usage, ms_update
 
 
 def main() -> None:
@@ -87,7 +112,7 @@ def main() -> None:
     learner = Learner(config, make_env(config).action_spec)
     policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in both runs
     actions_1, seconds_1 = one_worker(config, policy, batches)
-    actions_2, seconds_2, ms_update = two_workers(config, policy, learner, batches)
+    actions_2, seconds_2, usage, ms_update = two_workers(config, policy, learner, batches)
     decisions = actions_2.numel()
     dps_1, dps_2 = decisions / sum(map(sum, seconds_1)), decisions / sum(seconds_2)
     sync_bound = sum(map(sum, seconds_1)) / sum(max(times) for times in zip(*seconds_1))
@@ -101,7 +126,7 @@ def main() -> None:
           "same_actions": bool(torch.equal(actions_1, actions_2)),
           "s_per_batch_1": [[round(t, 2) for t in times] for times in seconds_1],
           "s_per_batch_2": [round(t, 2) for t in seconds_2],
-          "sync_bound": round(sync_bound, 3), "ms_update_per_batch": round(ms_update, 1),
+          "cpu_2": usage, "sync_bound": round(sync_bound, 3), "ms_update_per_batch": round(ms_update, 1),
           "update_fraction": round(update_fraction, 4),
           "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3)})
 

@@ -11,11 +11,10 @@ machine's address (forcing the nodes onto 127.0.0.1 leaves the driver unable to 
 from __future__ import annotations
 
 import pytest
-import torch
 
-from explore_rl.envs import make_env
-from explore_rl.trainer.a2c import Learner, make_collector, train
+from explore_rl.trainer.a2c import train
 from tests.trainer.test_a2c import config_for
+from tests.trainer.test_ray import assert_acted_with_the_new_weights, batches_around_a_weight_change
 
 NODE = {"num_cpus": 1, "object_store_memory": 200 * 1024**2}
 HEAD = {**NODE, "include_dashboard": False}
@@ -45,29 +44,22 @@ def test_two_ray_nodes_collect_receive_weights_and_train(tmp_path):
     cluster.wait_for_nodes()
     try:
         on_cluster = ["collector=ray", "collector.workers=2", f"collector.ray_address={cluster.address}",
-                      "algo.steps_per_update=3", "planning.actions.max_frontiers=2"]
+                      "algo.steps_per_update=3", "planning.actions.max_frontiers=2",
+                      "algo.lr=1e-2"]  # one update visibly changes the policy
         config = config_for(*on_cluster)
-        torch.manual_seed(0)
-        learner = Learner(config, make_env(config).action_spec)
-        collector = make_collector(config, learner.actor)
-        try:
-            collector.update_policy_weights_()
-            batches = iter(collector)
-            first = next(batches)
-            workers_nodes = on_each_worker(collector, node_id)
-            nodes = {node["NodeID"] for node in ray.nodes() if node["Alive"]}
-            assert first.shape == (2, 3)  # one row per remote collector: both produced a batch
-            assert len(set(workers_nodes)) == 2 and set(workers_nodes) == nodes, (workers_nodes, nodes)
-            assert learner.update(first) is not None  # a real update changes the weights
-            collector.update_policy_weights_()
-            second = next(batches)
-        finally:
-            collector.shutdown()
-        with torch.no_grad():  # the actions of both nodes were sampled by the updated actor
-            updated = learner.actor.get_dist(second).log_prob(second["action"])
-            before_update = learner.actor.get_dist(first).log_prob(first["action"])
-        torch.testing.assert_close(second["action_log_prob"], updated, rtol=1e-4, atol=1e-4)
-        assert not torch.allclose(first["action_log_prob"], before_update, atol=1e-6)
+        workers_nodes, nodes = [], set()
+
+        def ask_nodes(collector) -> None:
+            workers_nodes.extend(on_each_worker(collector, node_id))
+            nodes.update(node["NodeID"] for node in ray.nodes() if node["Alive"])
+
+        def update(learner, batch) -> None:
+            assert batch.shape == (2, 3)  # one row per remote collector: both produced a batch
+            assert learner.update(batch) is not None  # a real A2C update changes the weights
+
+        learner, first, second = batches_around_a_weight_change(config, update, ask_nodes)
+        assert len(set(workers_nodes)) == 2 and set(workers_nodes) == nodes, (workers_nodes, nodes)
+        assert_acted_with_the_new_weights(learner, first, second)  # on both nodes
 
         state = train(config_for(*on_cluster, "train.frames=12"), tmp_path / "run")
         assert state.updates == 2 and state.frames == 12
