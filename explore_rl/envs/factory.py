@@ -46,7 +46,6 @@ def policy_seed(seed: int, worker: int, start_frame: int = 0) -> int:
     return int(np.random.SeedSequence([seed, worker, start_frame, POLICY_STREAM]).generate_state(1)[0])
 
 
-
 @dataclass
 class EnvFactory:
     """``EnvFactory(config)()`` builds the environment (in whichever process calls it).
