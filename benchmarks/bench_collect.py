@@ -14,9 +14,11 @@ same episodes (``same_actions`` checks it):
 ``dps_1``, ``dps_2`` are decisions/s over the timed batches, ``scaling`` their ratio.
 ``sync_bound``: the scaling a synchronous collector could reach on this work if two
 workers ran as fast as one, from the 1-worker per-batch times (each batch waits for the
-slower worker). ``cpu_2``: during the 2-worker batches, the CPU fraction of this process
-(the learner's; it should idle) and of each worker, and each worker's busy threads (more
-than one would mean torch/BLAS/GTSAM threads oversubscribing the cores). The learner's
+slower worker); ``async_bound``: the same if no worker ever waited for the other (an
+asynchronous collector; the slower worker's total). ``cpu_2``: during the 2-worker
+batches, the CPU fraction of this process (the learner's; it should idle) and of each
+worker, and each worker's busy threads (more than one would mean torch/BLAS/GTSAM threads
+oversubscribing the cores). The learner's
 update (timed on each 2-worker batch, its weights not sent to the collectors so that the
 work stays the same) shows the collection/update split.
 
@@ -116,6 +118,7 @@ def main() -> None:
     decisions = actions_2.numel()
     dps_1, dps_2 = decisions / sum(map(sum, seconds_1)), decisions / sum(seconds_2)
     sync_bound = sum(map(sum, seconds_1)) / sum(max(times) for times in zip(*seconds_1))
+    async_bound = sum(map(sum, seconds_1)) / max(map(sum, seconds_1))
     update_fraction = ms_update / (ms_update + 1e3 * sum(seconds_2) / batches)
     print(f"1 worker: {decisions} decisions in {sum(map(sum, seconds_1)):.1f} s = {dps_1:.3f} /s")
     print(f"2 workers: {decisions} decisions in {sum(seconds_2):.1f} s = {dps_2:.3f} /s; a synchronous "
@@ -126,7 +129,7 @@ def main() -> None:
           "same_actions": bool(torch.equal(actions_1, actions_2)),
           "s_per_batch_1": [[round(t, 2) for t in times] for times in seconds_1],
           "s_per_batch_2": [round(t, 2) for t in seconds_2],
-          "cpu_2": usage, "sync_bound": round(sync_bound, 3), "ms_update_per_batch": round(ms_update, 1),
+          "cpu_2": usage, "sync_bound": round(sync_bound, 3), "async_bound": round(async_bound, 3), "ms_update_per_batch": round(ms_update, 1),
           "update_fraction": round(update_fraction, 4),
           "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3)})
 
