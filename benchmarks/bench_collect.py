@@ -1,17 +1,34 @@
 """Decisions per second collected by the trainer's TorchRL collectors: 1 vs 2 workers.
 
 The real environment (office, ``slam=model``) and the default actor sampling its
-actions, as in training: ``collector.workers=1`` is TorchRL's ``Collector`` in this
-process, ``collector.workers=2`` a ``MultiSyncCollector`` over two spawned workers. Each
-is timed over the same number of batches after one warm-up batch (worker start-up and
-the first reset excluded), and the learner's update on those batches is timed too, so
-the split of a training iteration between collection and update is visible.
+actions, as in training. Both runs do the **same work**: the trainer's two worker
+factories (each worker's env seed and action-sampling seed, ``env_factories``), the same
+fixed weights, the same number of batches per worker after one warm-up batch each
+(worker start-up and the first reset excluded), so both take the same decisions in the
+same episodes (``same_actions`` checks it):
+
+* 1 worker: TorchRL's ``Collector`` in this process, running worker 0's batches, then
+  worker 1's (one core does all of it);
+* 2 workers: the trainer's ``MultiSyncCollector`` over two spawned workers.
+
+``dps_1``, ``dps_2`` are decisions/s over the timed batches, ``scaling`` their ratio.
+``sync_bound``: the scaling a synchronous collector could reach on this work if two
+workers ran as fast as one, from the 1-worker per-batch times (each batch waits for the
+slower worker); ``async_bound``: the same if no worker ever waited for the other (an
+asynchronous collector; the slower worker's total). ``cpu_2``: during the 2-worker
+batches, the CPU fraction of this process (the learner's; it should idle) and of each
+worker, and each worker's busy threads (more than one would mean torch/BLAS/GTSAM threads
+oversubscribing the cores). The learner's
+update (timed on each 2-worker batch, its weights not sent to the collectors so that the
+work stays the same) shows the collection/update split.
 
     python benchmarks/bench_collect.py [--quick | --smoke]
 """
 
 from __future__ import annotations
 
+import copy
+import os
 import sys
 import time
 from pathlib import Path
@@ -23,49 +40,98 @@ import torch  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.envs import make_env  # noqa: E402
-from explore_rl.trainer.a2c import Learner, as_workers_by_time, make_collector  # noqa: E402
+from explore_rl.trainer.a2c import (Learner, as_workers_by_time, env_factories, local_collector,  # noqa: E402
+                                    make_collector)
+
+WORKERS = 2
 
 
-def measure(workers: int, batches: int, overrides: list[str]) -> dict:
-    """Decisions/s of ``workers`` collectors over ``batches`` batches, and ms per update."""
-    config = load_config(["scene=office", "slam=model", f"collector.workers={workers}", *overrides])
-    torch.manual_seed(0)
-    learner = Learner(config, make_env(config).action_spec)
-    collector = make_collector(config, learner.actor)
+def thread_cpu_s(pid: int) -> list[float]:
+    """CPU seconds (user + system) of each thread of process ``pid`` (Linux ``/proc``; [] elsewhere)."""
+    tasks = Path(f"/proc/{pid}/task")
+    if not tasks.is_dir():
+        return []
+    ticks = os.sysconf("SC_CLK_TCK")
+    fields = [(tasks / tid / "stat").read_text().rsplit(")", 1)[1].split() for tid in os.listdir(tasks)]
+    return [(int(f[11]) + int(f[12])) / ticks for f in fields]
+
+
+def timed_batches(collector, batches: int) -> tuple[list, list[float], dict]:
+    """A warm-up batch, then ``batches`` batches and the seconds each took, and where the
+    CPU went meanwhile: this process's CPU fraction, and per worker process (if any) its
+    CPU fraction and how many of its threads did > 5 % of its work (oversubscription check)."""
     iterator = iter(collector)
-    next(iterator)  # warm-up: worker start-up, first reset
-    decisions, collect_s, update_s = 0, 0.0, 0.0
+    next(iterator)
+    pids = [proc.pid for proc in getattr(collector, "procs", [])]
+    cpu_before, main_before, start_all = [thread_cpu_s(pid) for pid in pids], time.process_time(), time.perf_counter()
+    data, seconds = [], []
     for _ in range(batches):
         start = time.perf_counter()
-        batch = as_workers_by_time(next(iterator), workers)
-        collect_s += time.perf_counter() - start
-        decisions += batch.numel()
-        start = time.perf_counter()
-        learner.update(batch)
-        update_s += time.perf_counter() - start
-        collector.update_policy_weights_()
+        data.append(next(iterator))
+        seconds.append(time.perf_counter() - start)
+    wall = time.perf_counter() - start_all
+    usage = {"main_cpu_fraction": round((time.process_time() - main_before) / wall, 3)}
+    cpu_after = [thread_cpu_s(pid) for pid in pids]
+    if pids and all(cpu_after):
+        work = [sum(after) - sum(before) for before, after in zip(cpu_before, cpu_after)]
+        usage["worker_cpu_fraction"] = [round(w / wall, 3) for w in work]
+        usage["worker_busy_threads"] = [sum(t > 0.05 * w for t in after) for w, after in zip(work, cpu_after)]
     collector.shutdown()
-    return {"workers": workers, "decisions": decisions, "collect_s": round(collect_s, 1),
-            "decisions_per_s": round(decisions / collect_s, 3),
-            "ms_update_per_batch": round(1e3 * update_s / batches, 1),
-            "update_fraction": round(update_s / (update_s + collect_s), 3)}
+    return data, seconds, usage
+
+
+def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[float]]]:
+    """Each worker's batches, one worker after the other, in this process: the actions
+    ``[workers, batches, T]`` and each worker's per-batch seconds."""
+    actions, seconds = [], []
+    for factory in env_factories(config):
+        data, times, _ = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
+        actions.append(torch.stack([batch["action"] for batch in data]))
+        seconds.append(times)
+    return torch.stack(actions), seconds
+
+
+def two_workers(config, policy, learner: Learner, batches: int) -> tuple[torch.Tensor, list[float], dict, float]:
+    """The trainer's 2-worker collector: the actions ``[workers, batches, T]``, per-batch
+    seconds, CPU use, and ms per learner update on those batches."""
+    data, seconds, usage = timed_batches(make_collector(config, policy), batches)
+    data = [as_workers_by_time(batch, WORKERS) for batch in data]
+    start = time.perf_counter()
+    for batch in data:
+        learner.update(batch)
+    ms_update = 1e3 * (time.perf_counter() - start) / batches
+    return torch.stack([batch["action"] for batch in data], dim=1), seconds, usage, ms_update
 
 
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
-    batches = 1 if args.smoke else 3 if args.quick else 12
+    batches = 1 if args.smoke else 2 if args.quick else 12
     overrides = ["algo.steps_per_update=2", "planning.actions.max_frontiers=2", "model.hidden=16",
                  "model.mlp_hidden=16"] if args.smoke else []
-    one = measure(1, batches, overrides)
-    two = measure(2, batches, overrides)
-    for r in (one, two):
-        print(f"{r['workers']} worker(s): {r['decisions']} decisions in {r['collect_s']} s = "
-              f"{r['decisions_per_s']} /s; update {r['ms_update_per_batch']} ms per batch "
-              f"({100 * r['update_fraction']:.0f} % of an iteration)")
+    config = load_config(["scene=office", "slam=model", f"collector.workers={WORKERS}", *overrides])
+    torch.set_num_threads(config.train.threads)  # as the trainer (TrainingRun) does
+    torch.manual_seed(0)
+    learner = Learner(config, make_env(config).action_spec)
+    policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in both runs
+    actions_1, seconds_1 = one_worker(config, policy, batches)
+    actions_2, seconds_2, usage, ms_update = two_workers(config, policy, learner, batches)
+    decisions = actions_2.numel()
+    dps_1, dps_2 = decisions / sum(map(sum, seconds_1)), decisions / sum(seconds_2)
+    sync_bound = sum(map(sum, seconds_1)) / sum(max(times) for times in zip(*seconds_1))
+    async_bound = sum(map(sum, seconds_1)) / max(map(sum, seconds_1))
+    update_fraction = ms_update / (ms_update + 1e3 * sum(seconds_2) / batches)
+    print(f"1 worker: {decisions} decisions in {sum(map(sum, seconds_1)):.1f} s = {dps_1:.3f} /s")
+    print(f"2 workers: {decisions} decisions in {sum(seconds_2):.1f} s = {dps_2:.3f} /s; a synchronous "
+          f"collector's bound {sync_bound:.2f}x; update {ms_update:.0f} ms per batch "
+          f"({100 * update_fraction:.1f} % of an iteration)")
     emit({"benchmark": "collect", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
-          "dps_1": one["decisions_per_s"], "dps_2": two["decisions_per_s"],
-          "scaling": round(two["decisions_per_s"] / one["decisions_per_s"], 3),
-          "one_worker": one, "two_workers": two})
+          "decisions": decisions, "batches_per_worker": batches, "steps_per_update": config.algo.steps_per_update,
+          "same_actions": bool(torch.equal(actions_1, actions_2)),
+          "s_per_batch_1": [[round(t, 2) for t in times] for times in seconds_1],
+          "s_per_batch_2": [round(t, 2) for t in seconds_2],
+          "cpu_2": usage, "sync_bound": round(sync_bound, 3), "async_bound": round(async_bound, 3), "ms_update_per_batch": round(ms_update, 1),
+          "update_fraction": round(update_fraction, 4),
+          "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3)})
 
 
 if __name__ == "__main__":

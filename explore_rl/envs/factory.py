@@ -35,20 +35,40 @@ def worker_seed(seed: int, worker: int) -> int:
     return int(seed) if worker == 0 else int(np.random.SeedSequence([seed, worker]).generate_state(1)[0])
 
 
+POLICY_STREAM = 1  # tags the policy-sampling seeds apart from the env seeds
+
+
+def policy_seed(seed: int, worker: int, start_frame: int = 0) -> int:
+    """Seed of the torch RNG with which worker ``worker`` samples its actions, in its own
+    process, for a collector started after ``start_frame`` decisions of the run (a resumed
+    or restarted collector does not draw the same samples again). Independent of the env
+    seeds (:func:`worker_seed`): a different entropy length."""
+    return int(np.random.SeedSequence([seed, worker, start_frame, POLICY_STREAM]).generate_state(1)[0])
+
+
 @dataclass
 class EnvFactory:
     """``EnvFactory(config)()`` builds the environment (in whichever process calls it).
 
     ``replay=(episode, actions)``: the env starts by re-running that episode up to where
     a killed training run stopped (``ExplorationEnv.restore``).
+
+    ``torch_seed``: seeds the torch RNG of the process that builds the env, i.e. a
+    collector worker's action sampling (:func:`policy_seed`), so that a multi-worker
+    collection is reproducible; None (an in-process collector) leaves the caller's RNG alone.
     """
 
     config: Config
     device: str = "cpu"
     worker: int = 0
     replay: Optional[tuple[int, list[int]]] = None
+    torch_seed: Optional[int] = None
 
     def __call__(self) -> EnvBase:
+        if self.torch_seed is not None:
+            import torch  # the worker's process; torch is loaded there already by TorchRL
+
+            torch.manual_seed(self.torch_seed)
         env = make_env(self.config, self.device, self.worker)
         if self.replay is not None:
             env.restore(*self.replay)

@@ -41,7 +41,7 @@ from torchrl.envs.utils import ExplorationType
 from torchrl.objectives import A2CLoss, ValueEstimators
 
 from explore_rl.config import Config
-from explore_rl.envs.factory import EnvFactory, make_env
+from explore_rl.envs.factory import EnvFactory, make_env, policy_seed
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
@@ -246,23 +246,49 @@ class Learner:
 # ---------------------------------------------------------------------- collectors
 
 
-def make_collector(config: Config, actor, replays: list | None = None):
-    """The TorchRL collector of ``collector.workers`` env workers (see the module docstring).
-
-    ``replays[i]``: the episode worker ``i`` resumes (``EnvFactory.replay``), or None.
-    """
-    workers, steps = config.collector.workers, config.algo.steps_per_update
-    replays = replays or [None] * workers
-    factories = [EnvFactory(config, worker=i, replay=replays[i]) for i in range(workers)]
-    common = dict(frames_per_batch=workers * steps, total_frames=-1, exploration_type=ExplorationType.RANDOM)
+def make_collector(config: Config, actor, replays: list | None = None, start_frame: int = 0):
+    """The TorchRL collector of ``collector.workers`` env workers (see the module docstring)
+    over :func:`env_factories` (``replays``, ``start_frame``: see there)."""
+    factories = env_factories(config, replays, start_frame)
+    steps = config.algo.steps_per_update
     if config.collector.backend == "ray":
         from explore_rl.trainer.ray_backend import make_ray_collector  # ray is an optional extra
 
-        return make_ray_collector(factories, actor, config.collector, **common)
-    common["auto_register_policy_transforms"] = False  # our env needs no policy transforms
-    if workers == 1:
-        return Collector(factories[0], actor, **common)
-    return MultiSyncCollector(factories, actor, cat_results="stack", **common)
+        return make_ray_collector(factories, actor, config.collector, **collector_kwargs(len(factories) * steps))
+    if len(factories) == 1:
+        return local_collector(factories[0], actor, steps)
+    return MultiSyncCollector(factories, actor, cat_results="stack", auto_register_policy_transforms=False,
+                              **collector_kwargs(len(factories) * steps))
+
+
+def env_factories(config: Config, replays: list | None = None, start_frame: int = 0) -> list[EnvFactory]:
+    """One env factory per worker of ``collector.workers``.
+
+    ``replays[i]``: the episode worker ``i`` resumes (``EnvFactory.replay``), or None.
+    Workers in other processes (``workers > 1``, Ray) seed their action sampling from
+    ``(seed, worker, start_frame)`` (:func:`policy_seed`), so a multi-worker run is
+    reproducible; one local worker samples with this process's RNG (checkpointed, which
+    makes its resume exact). TorchRL's ``set_seed`` of the multi collectors is not used:
+    it re-seeds and resets every env, which would undo the per-worker env seeds and the
+    replayed episodes.
+    """
+    workers = config.collector.workers
+    replays = replays or [None] * workers
+    own_processes = workers > 1 or config.collector.backend == "ray"
+    return [EnvFactory(config, worker=i, replay=replays[i],
+                       torch_seed=policy_seed(config.seed, i, start_frame) if own_processes else None)
+            for i in range(workers)]
+
+
+def collector_kwargs(frames_per_batch: int) -> dict:
+    """What every collector of the trainer shares: sampled actions, no frame budget of its own."""
+    return dict(frames_per_batch=frames_per_batch, total_frames=-1, exploration_type=ExplorationType.RANDOM)
+
+
+def local_collector(factory: EnvFactory, actor, steps: int) -> Collector:
+    """TorchRL's ``Collector`` of one env in this process, ``steps`` decisions per batch."""
+    return Collector(factory, actor, auto_register_policy_transforms=False,  # our env needs none
+                     **collector_kwargs(steps))
 
 
 def as_workers_by_time(batch: TensorDictBase, workers: int) -> TensorDictBase:
@@ -352,7 +378,8 @@ class TrainingRun:
             log.info("nothing to do: %d of %d decisions, %.1f min already", self.state.frames,
                      self.config.train.frames, self.state.wall_s / 60)
             return self.state
-        collector = make_collector(self.config, self.learner.acting_actor, self.episodes.replays())
+        collector = make_collector(self.config, self.learner.acting_actor, self.episodes.replays(),
+                                   self.state.frames)
         collector.update_policy_weights_()  # remote (Ray) collectors wait for a first sync
         if self.torch_rng is not None:
             torch.set_rng_state(self.torch_rng)  # after building the collector, before acting
@@ -370,7 +397,7 @@ class TrainingRun:
                     self.failed_collections += 1
                     collector.shutdown()
                     collector = make_collector(self.config, self.learner.acting_actor,
-                                               self.episodes.abandon_running())
+                                               self.episodes.abandon_running(), self.state.frames)
                     collector.update_policy_weights_()
             self.save("last")
         finally:

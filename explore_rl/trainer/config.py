@@ -65,7 +65,7 @@ class CollectorConfig:
 
     workers: int = 1  # 1: TorchRL Collector in this process; >1: MultiSyncCollector
     backend: str = "local"  # local | ray (TorchRL's RayCollector, `pip install explore_rl[ray]`)
-    ray_address: Optional[str] = None  # e.g. "ray://head:10001"; None starts a local Ray instance
+    ray_address: Optional[str] = None  # "HEAD_IP:6379" on a cluster node, "ray://HEAD_IP:10001" from outside; None: local Ray
 
 
 @dataclass

@@ -119,6 +119,32 @@ def test_two_real_worker_processes_through_the_cli(tmp_path):
     assert again.returncode == 2 and "add resume=true" in again.stderr
 
 
+def collect_two_workers(seed: int, start_frame: int = 0, batches: int = 2):
+    """``batches`` batches ``[2, 3]`` of two spawned workers, acting with the same initial weights."""
+    config = config_for("collector.workers=2", "algo.steps_per_update=3", f"seed={seed}")
+    torch.manual_seed(0)
+    learner = Learner(config, make_env(config).action_spec)
+    collector = make_collector(config, learner.actor, start_frame=start_frame)
+    try:
+        return torch.stack([batch for _, batch in zip(range(batches), collector)])
+    finally:
+        collector.shutdown()
+
+
+@pytest.mark.slow  # four collectors of two spawned workers: ~1-2 min on 2 cores
+def test_a_two_worker_collection_is_reproduced_by_its_seed():
+    """The workers' action sampling is seeded per worker from (seed, worker, start frame):
+    the same seed gives the same actions and episodes, another seed or start other ones."""
+    first, again = collect_two_workers(0), collect_two_workers(0)
+    assert torch.equal(first["action"], again["action"]) and torch.equal(first["episode"], again["episode"])
+    torch.testing.assert_close(first["action_log_prob"], again["action_log_prob"])
+    torch.testing.assert_close(first["next", "reward"], again["next", "reward"])
+    assert not torch.equal(first["action"][:, 0], first["action"][:, 1])  # two workers, two streams
+    other_seed, other_start = collect_two_workers(1), collect_two_workers(0, start_frame=6)
+    assert not torch.equal(first["action"], other_seed["action"])
+    assert not torch.equal(first["action"], other_start["action"])  # same envs, other samples
+
+
 def test_bad_checkpoints_fail_with_one_line_naming_the_file(tmp_path):
     config = config_for("train.frames=5")
     train(config, tmp_path / "run")
