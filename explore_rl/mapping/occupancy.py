@@ -118,6 +118,71 @@ def collapse_scan(
     return Scan2D(azimuth_bin_centres(n_bins), ranges, hit)
 
 
+class RayGridCollapse:
+    """:func:`collapse_scan` for a LiDAR whose rays form a ``channels x azimuths`` grid
+    (channel-major) with one azimuth per bin: same :class:`Scan2D`, ~4x cheaper.
+
+    When azimuth ``a`` of every channel lies in bin ``a`` well inside the bin (a VLP-16 at
+    0.4 deg with 900 bins: on the bin centres), a point's bin is its ray's azimuth index
+    (the point is the direction times a range, so its azimuth differs by rounding only),
+    and a ray without return clears :func:`no_return_clearance` of its direction, fixed per
+    ray. Per bin the nearest obstacle and the farthest free evidence are then a min and a
+    max over the channels of a ``(channels, azimuths)`` array instead of scattered
+    ``ufunc.at`` updates; the values are the same floats (min and max do not depend on the
+    order). :meth:`aligned` says whether a ray grid qualifies.
+    """
+
+    # A ray's azimuth must lie this far (in bins) from a bin edge: rounding moves a point's
+    # azimuth by ~1e-16 rad.
+    edge_margin = 1e-6
+
+    def __init__(self, directions: np.ndarray, channels: int, sensor_height: float,
+                 config: OccupancyConfig | None = None):
+        self.config = config or OccupancyConfig()
+        self.directions = np.asarray(directions, dtype=float).reshape(-1, 3)
+        self.channels = int(channels)
+        if not self.aligned(self.directions, self.channels, self.config.azimuth_bins):
+            raise ValueError(f"rays of {channels} channels do not fall one azimuth per bin into "
+                             f"mapping.occupancy.azimuth_bins={self.config.azimuth_bins}; use collapse_scan")
+        self.sensor_height = float(sensor_height)
+        self._clearance = no_return_clearance(self.directions, sensor_height, self.config)
+        self._angles = azimuth_bin_centres(self.config.azimuth_bins)
+
+    @classmethod
+    def aligned(cls, directions: np.ndarray, channels: int, n_bins: int) -> bool:
+        """Whether rays ``directions`` (channel-major, ``channels`` rows) put azimuth ``a``
+        of every channel in bin ``a``, at least :attr:`edge_margin` bins from its edges."""
+        directions = np.asarray(directions, dtype=float).reshape(-1, 3)
+        if channels < 1 or len(directions) != channels * n_bins:
+            return False
+        position = np.arctan2(directions[:, 1], directions[:, 0]) * (n_bins / (2.0 * np.pi))
+        in_bin = np.mod(np.round(position).astype(np.int64), n_bins).reshape(channels, n_bins)
+        off_edge = np.abs(position - np.round(position)) < 0.5 - cls.edge_margin
+        return bool(np.array_equal(in_bin, np.broadcast_to(np.arange(n_bins), in_bin.shape)) and off_edge.all())
+
+    def __call__(self, points_sensor: np.ndarray, hit_index: np.ndarray) -> Scan2D:
+        """The :class:`Scan2D` of a scan whose ``points_sensor`` are the returns of rays
+        ``hit_index`` (increasing; the other rays had no return)."""
+        config, n = self.config, len(self.directions)
+        points = np.asarray(points_sensor, dtype=float).reshape(-1, 3)
+        z_base = np.full(n, np.nan)
+        z_base[hit_index] = points[:, 2] + self.sensor_height
+        horizontal = np.zeros(n)
+        horizontal[hit_index] = np.hypot(points[:, 0], points[:, 1])
+        shape = (self.channels, config.azimuth_bins)
+
+        is_obstacle = (z_base >= config.obstacle_min_height) & (z_base <= config.obstacle_max_height)
+        nearest_obstacle = np.where(is_obstacle, horizontal, np.inf).reshape(shape).min(axis=0)
+        free = np.where(z_base < config.floor_max_height, horizontal, 0.0)
+        no_return = np.ones(n, dtype=bool)
+        no_return[hit_index] = False
+        free[no_return] = self._clearance[no_return]
+        farthest_free = np.maximum(free.reshape(shape).max(axis=0), 0.0)
+
+        hit = np.isfinite(nearest_obstacle)
+        return Scan2D(self._angles.copy(), np.where(hit, nearest_obstacle, farthest_free), hit)
+
+
 class OccupancyGrid:
     """Log-odds occupancy on a :class:`GridSpec` (``[iy, ix]`` indexing)."""
 
@@ -159,11 +224,11 @@ class OccupancyGrid:
     def integrate_cells(self, free: np.ndarray, occupied: np.ndarray) -> None:
         """Add one scan given as its :meth:`beam_cells` (flat indices, disjoint): the log-odds
         step of :meth:`integrate` without the ray tracing, for callers that keep the cells."""
-        flat = self.log_odds.reshape(-1)
-        flat[free] += self.config.log_odds_free
-        flat[occupied] += self.config.log_odds_occupied
-        touched = np.concatenate([free, occupied])
-        flat[touched] = np.clip(flat[touched], self.config.log_odds_min, self.config.log_odds_max)
+        flat, config = self.log_odds.reshape(-1), self.config
+        # The sets are disjoint: step and clamp each in one gather and one scatter.
+        low, high = config.log_odds_min, config.log_odds_max
+        flat[free] = np.clip(flat[free] + config.log_odds_free, low, high)
+        flat[occupied] = np.clip(flat[occupied] + config.log_odds_occupied, low, high)
 
     def replay(self, cells: Sequence[tuple[np.ndarray, np.ndarray]]) -> None:
         """Clear the grid and integrate every scan's kept cells in order.

@@ -27,6 +27,9 @@ class Scan:
     points: np.ndarray  # (K, 3) hit points
     no_return_dirs: np.ndarray  # (M, 3) unit directions with no return within max_range
     ranges: np.ndarray  # (N,) per ray; -1 where no return
+    # Ray of each point (increasing), when the points are exactly the returns of the rays
+    # (a LiDAR scan; lets the 2D collapse skip re-binning them: RayGridCollapse).
+    hit_index: np.ndarray | None = None
 
 
 def ray_directions(config: LidarConfig) -> np.ndarray:
@@ -184,4 +187,5 @@ class Lidar:
         points = self.directions.take(hit_index, axis=0)
         points *= noisy[:, None]
         no_return_dirs = self.directions.take(np.flatnonzero(~hit), axis=0)
-        return Scan(points=points, no_return_dirs=no_return_dirs, ranges=np.where(hit, dist, -1.0))
+        return Scan(points=points, no_return_dirs=no_return_dirs, ranges=np.where(hit, dist, -1.0),
+                    hit_index=hit_index)

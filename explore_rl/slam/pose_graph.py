@@ -294,9 +294,12 @@ class PoseGraph:
         return self._cache[("poses",)].copy()
 
     def poses_se2(self) -> np.ndarray:
-        """``(N, 3)`` current planar estimates ``[x, y, yaw]``."""
-        T = self.poses_matrix()
-        return np.stack([T[:, 0, 3], T[:, 1, 3], np.arctan2(T[:, 1, 0], T[:, 0, 0])], axis=-1)
+        """``(N, 3)`` current planar estimates ``[x, y, yaw]`` (cached until the next update:
+        the session reads them several times per keyframe)."""
+        if ("se2",) not in self._cache:
+            T = self._cache[("poses",)] if ("poses",) in self._cache else self.poses_matrix()
+            self._cache[("se2",)] = np.stack([T[:, 0, 3], T[:, 1, 3], np.arctan2(T[:, 1, 0], T[:, 0, 0])], axis=-1)
+        return self._cache[("se2",)].copy()
 
     # -------------------------------------------------------------- covariances
 

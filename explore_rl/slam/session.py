@@ -32,7 +32,14 @@ from kiss_icp.voxelization import voxel_down_sample
 
 from explore_rl.geometry import se2_between, se2_compose, se2_to_matrix, transform_points
 from explore_rl.mapping.config import MappingConfig
-from explore_rl.mapping.occupancy import OccupancyGrid, Scan2D, collapse_scan, explored_fraction, moved_poses
+from explore_rl.mapping.occupancy import (
+    OccupancyGrid,
+    RayGridCollapse,
+    Scan2D,
+    collapse_scan,
+    explored_fraction,
+    moved_poses,
+)
 from explore_rl.mapping.voxels import VoxelCounts, VoxelMap
 from explore_rl.robot import MotionStep
 from explore_rl.scene.build import Scene
@@ -179,6 +186,7 @@ class SlamSession:
         self.loop_closer = make_loop_closer(config)
         self.occupancy = OccupancyGrid(scene.grid, mapping.occupancy)
         self.incremental = mapping.updates == "incremental"
+        self._collapse = self._ray_grid_collapse() if self.incremental else None
         self.voxels: VoxelCounts | VoxelMap = (VoxelCounts if self.incremental else VoxelMap)(mapping.voxels)
         self._cells: list[tuple[np.ndarray, np.ndarray]] = []  # per keyframe, at its map pose (incremental)
         self.keyframes: list[Keyframe] = []
@@ -210,8 +218,7 @@ class SlamSession:
         with self.timer("lidar"):
             scan = self.lidar.scan(true_pose)
             cloud = voxel_down_sample(scan.points, self.config.keyframe_cloud_voxel)
-            scan2d = collapse_scan(scan.points, scan.no_return_dirs,
-                                   self.lidar.config.mount_height, self.mapping.occupancy)
+            scan2d = self.collapse(scan)
         first = not self.keyframes
         wheel_delta = np.eye(4) if first else se2_to_matrix(
             se2_between(self.keyframes[-1].odom_pose, odom_pose))
@@ -234,6 +241,21 @@ class SlamSession:
             self.update_maps()
 
     # ------------------------------------------------------------------ maps
+
+    def _ray_grid_collapse(self) -> RayGridCollapse | None:
+        """The cheap 2D collapse when the LiDAR's rays fall one azimuth per bin, else None."""
+        directions, channels = self.lidar.directions, self.lidar.config.channels
+        if not RayGridCollapse.aligned(directions, channels, self.mapping.occupancy.azimuth_bins):
+            return None
+        return RayGridCollapse(directions, channels, self.lidar.config.mount_height, self.mapping.occupancy)
+
+    def collapse(self, scan) -> Scan2D:
+        """A scan's :class:`Scan2D`: :class:`RayGridCollapse` when it applies (incremental
+        updates, a LiDAR scan with its rays), else the reference :func:`collapse_scan`."""
+        if self._collapse is not None and scan.hit_index is not None:
+            return self._collapse(scan.points, scan.hit_index)
+        return collapse_scan(scan.points, scan.no_return_dirs, self.lidar.config.mount_height,
+                             self.mapping.occupancy)
 
     def world_from_sensor(self, poses_se2: np.ndarray) -> np.ndarray:
         h = self.lidar.config.mount_height

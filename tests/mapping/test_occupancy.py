@@ -12,13 +12,14 @@ from explore_rl.grid import GridSpec
 from explore_rl.mapping.config import MappingConfig, OccupancyConfig
 from explore_rl.mapping.occupancy import (
     OccupancyGrid,
+    RayGridCollapse,
     Scan2D,
     collapse_scan,
     explored_fraction,
     moved_poses,
     needs_rebuild,
 )
-from explore_rl.sensors.lidar import Lidar, LidarConfig
+from explore_rl.sensors.lidar import Lidar, LidarConfig, ray_directions
 
 N_BINS = 900
 SENSOR_HEIGHT = 0.5
@@ -246,6 +247,42 @@ def test_real_office_scan_agrees_with_ground_truth(office):
     assert not (occupancy.known_occupied & ~near_solid).any()
     assert not (occupancy.known_free & deep_solid).any()
     assert 0.01 < explored_fraction(occupancy, office.truth.reachable) < 0.5
+
+
+def test_ray_grid_collapse_equals_collapse_scan_on_real_scans(office):
+    """The fast path (mapping.updates=incremental) against the reference collapse, exactly,
+    on scans from free poses of the office at random headings."""
+    lidar_config = LidarConfig()
+    lidar = Lidar(office, lidar_config, np.random.default_rng(0))
+    collapse = RayGridCollapse(lidar.directions, lidar_config.channels, lidar_config.mount_height, CONFIG)
+    rng = np.random.default_rng(5)
+    free = np.argwhere(office.truth.reachable)
+    obstacles = floors = no_returns = 0
+    for _ in range(12):
+        xy = office.grid.cell_to_world(free[rng.integers(len(free))])
+        scan = lidar.scan(np.array([xy[0], xy[1], rng.uniform(-np.pi, np.pi)]))
+        reference = collapse_scan(scan.points, scan.no_return_dirs, lidar_config.mount_height, CONFIG)
+        fast = collapse(scan.points, scan.hit_index)
+        np.testing.assert_array_equal(fast.angles, reference.angles)
+        np.testing.assert_array_equal(fast.ranges, reference.ranges)
+        np.testing.assert_array_equal(fast.hit, reference.hit)
+        obstacles += int(reference.hit.sum())
+        floors += int((~reference.hit & reference.valid).sum())
+        no_returns += len(scan.no_return_dirs)
+    assert obstacles > 100 and floors > 100 and no_returns > 1000  # every kind of evidence
+
+
+def test_ray_grid_collapse_needs_one_azimuth_per_bin():
+    lidar_config = LidarConfig()
+    directions = ray_directions(lidar_config)
+    assert RayGridCollapse.aligned(directions, lidar_config.channels, 900)
+    assert not RayGridCollapse.aligned(directions, lidar_config.channels, 720)
+    half_bin = directions.copy()  # every ray on a bin edge: rounding would decide the bin
+    angle = np.arctan2(directions[:, 1], directions[:, 0]) + np.pi / 900
+    half_bin[:, 0], half_bin[:, 1] = np.cos(angle), np.sin(angle)
+    assert not RayGridCollapse.aligned(half_bin, lidar_config.channels, 900)
+    with pytest.raises(ValueError, match="azimuth_bins=720"):
+        RayGridCollapse(directions, lidar_config.channels, 0.4, OccupancyConfig(azimuth_bins=720))
 
 
 def test_occupied_at_reads_known_occupied_and_treats_outside_as_free():

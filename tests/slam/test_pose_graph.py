@@ -236,3 +236,17 @@ def test_scan_match_factor_joins_its_anchor_and_unusable_ones_are_skipped():
     assert graph.factor_counts == {"odometry": 2, "scan_matching": 1}
     with pytest.raises(ValueError):
         graph.add_keyframe([0.5, 0.0, 0.0], 3, ScanMatch(step, cov, False, 0, 100, 0.0, span=9))
+
+
+def test_poses_se2_are_cached_copies_renewed_by_each_update():
+    config = PoseGraphConfig()
+    truth, steps = square_path(2.0, 0.5)
+    graph = build(truth[:6], steps[:5], config)
+    first = graph.poses_se2()
+    T = graph.poses_matrix()
+    np.testing.assert_array_equal(first, np.stack([T[:, 0, 3], T[:, 1, 3], np.arctan2(T[:, 1, 0], T[:, 0, 0])], -1))
+    first[:] = 0.0  # a copy: the cache is untouched
+    assert np.abs(graph.poses_se2()).max() > 0.5
+    graph.add_keyframe([0.5, 0.0, 0.0], 3)
+    assert len(graph.poses_se2()) == 7
+    np.testing.assert_allclose(graph.poses_se2()[-1, :2], se2_compose(graph.poses_se2()[-2], [0.5, 0.0, 0.0])[:2])

@@ -85,6 +85,17 @@ def test_empty_or_floor_only_scans_never_crash_and_fall_back_to_odometry(lidar_f
     assert np.allclose(session.graph.poses_se2(), session.odometry_poses(), atol=1e-6)
 
 
+def test_incremental_sessions_collapse_on_the_ray_grid_and_the_reference_does_not(session):
+    assert session._collapse is not None  # the default: incremental map updates
+    reference = SlamSession(session.config, make_config("mapping.updates=rebuild").mapping, session.scene,
+                            session.lidar, session.scene.start_pose, np.random.default_rng(3))
+    assert reference._collapse is None
+    scan = session.lidar.scan(session.scene.start_pose)
+    fast, slow = session.collapse(scan), reference.collapse(scan)
+    np.testing.assert_array_equal(fast.ranges, slow.ranges)
+    np.testing.assert_array_equal(fast.hit, slow.hit)
+
+
 def test_reprojection_after_moving_poses_moves_the_map(session):
     session.rebuild_maps()
     before = session.occupancy.known_occupied.copy()
