@@ -19,7 +19,10 @@ the reference run (``same_explored``: explored fractions within 1 point; the mod
 differ by at most a cell per keyframe, and the model loop closer reads the map, so the
 runs' SLAM estimates drift apart a little).
 
-    python benchmarks/bench_drive.py [--quick | --smoke] [--set KEY=VALUE ...]
+``--profile PATH`` also writes a cProfile table (by own time) of one more incremental
+replay of the first seed to PATH (not part of the timed figures).
+
+    python benchmarks/bench_drive.py [--quick | --smoke] [--set KEY=VALUE ...] [--profile PATH]
 """
 
 from __future__ import annotations
@@ -30,6 +33,9 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import cProfile  # noqa: E402
+import io  # noqa: E402
+import pstats  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -100,6 +106,21 @@ def replay(seed: int, decisions: int, mode: str, paths: list[list], extra: list[
             "wall_seconds": time.perf_counter() - start_wall, "stages": dict(explorer.session.timer.seconds)}
 
 
+def write_profile(path: Path, seed: int, decisions: int, paths: list[list], extra: list[str]) -> None:
+    """cProfile of one incremental replay, the top functions by own time, to ``path``."""
+    profiler = cProfile.Profile()
+    profiler.enable()
+    run = replay(seed, decisions, "incremental", paths, extra)
+    profiler.disable()
+    text = io.StringIO()
+    keyframes = len(run["explorer"].session.keyframes)
+    text.write(f"incremental replay, seed {seed}, {len(paths)} moves, {keyframes} keyframes, "
+               f"{run['seconds']:.2f} s CPU under the profiler\n")
+    pstats.Stats(profiler, stream=text).sort_stats("tottime").print_stats(40)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text.getvalue())
+
+
 def map_checks(fast, reference) -> dict:
     """The fast run's maps against the reference code's rebuild at its map poses, and
     against the reference run."""
@@ -128,6 +149,8 @@ def parse_args() -> argparse.Namespace:
                         help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                         help="extra config overrides for every run (e.g. slam.keyframe_distance=1.0)")
+    parser.add_argument("--profile", type=Path, default=None, metavar="PATH",
+                        help="write a cProfile table of an incremental replay of the first seed here")
     return parser.parse_args()
 
 
@@ -146,6 +169,8 @@ def main() -> None:
                 run = replay(seed, decisions, mode, paths, args.set)
                 if mode not in best or run["seconds"] < best[mode]["seconds"]:
                     best[mode] = run
+        if args.profile is not None and seed == seeds[0]:
+            write_profile(args.profile, seed, decisions, paths, args.set)
         n_decisions += seed_decisions
         totals["follow"] += follow
         for mode, run in best.items():
