@@ -305,6 +305,8 @@ class ModelLoopCloser:
         self._nodes: list[int] = []  # endpoints of accepted closures
         self._distance = np.zeros((0, 0))
         self._through = np.zeros((0, 0))
+        self._through_minus_node = np.zeros(0)  # per endpoint p: min over q of _through[p, q] - q
+        self._newest_node = -1
         self._segment_revisit: list[int] = []  # candidates of the previous segmentation step
         self._travel: list[float] = []  # keyframe travel, appended as keyframes arrive
 
@@ -393,7 +395,10 @@ class ModelLoopCloser:
         if not self._nodes:
             return np.full(indices.shape, np.inf)
         nodes = np.asarray(self._nodes)
-        to_j = np.min(self._through + np.abs(nodes - j)[None, :], axis=1)  # per p, over q
+        if j >= self._newest_node:  # the newest keyframe: |q - j| = j - q for every endpoint
+            to_j = self._through_minus_node + j  # per p, exact: whole numbers (or inf) in floats
+        else:
+            to_j = np.min(self._through + np.abs(nodes - j)[None, :], axis=1)  # per p, over q
         return np.min(np.abs(indices[:, None] - nodes[None, :]) + to_j[None, :], axis=1)
 
     def _link(self, a: int, b: int) -> None:
@@ -420,6 +425,10 @@ class ModelLoopCloser:
         via = np.minimum(D[:, ia][:, None] + D[ib][None, :], D[:, ib][:, None] + D[ia][None, :])
         self._through = np.minimum(self._through, via)
         self._distance = np.minimum(D, via)
+        # For queries from a keyframe at or past every endpoint (the newest one, every call
+        # of the loop closer): min over q of through[p, q] - q, so a query costs O(n), not O(n^2).
+        self._through_minus_node = np.min(self._through - np.asarray(self._nodes, dtype=float)[None, :], axis=1)
+        self._newest_node = max(self._nodes)
 
     # ------------------------------------------------------------------ sources
 

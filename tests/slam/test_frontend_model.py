@@ -338,6 +338,11 @@ def test_steps_via_closures_follow_the_closure_links():
         expected = [min(abs(i - p) + closer._through[u, v] + abs(q - j)
                         for u, p in enumerate(nodes) for v, q in enumerate(nodes)) for i in indices]
         np.testing.assert_array_equal(closer.steps_via_closures(indices, int(j)), expected)
+    # From at or past every endpoint (the loop closer's newest keyframe: the O(n) path).
+    for j in range(max(nodes), 70):
+        expected = [min(abs(i - p) + closer._through[u, v] + abs(q - j)
+                        for u, p in enumerate(nodes) for v, q in enumerate(nodes)) for i in indices]
+        np.testing.assert_array_equal(closer.steps_via_closures(indices, j), expected)
 
 
 def test_segments_clear_matches_the_grid_line_of_sight():
