@@ -106,19 +106,37 @@ def replay(seed: int, decisions: int, mode: str, paths: list[list], extra: list[
             "wall_seconds": time.perf_counter() - start_wall, "stages": dict(explorer.session.timer.seconds)}
 
 
-def write_profile(path: Path, seed: int, decisions: int, paths: list[list], extra: list[str]) -> None:
-    """cProfile of one incremental replay, the top functions by own time, to ``path``."""
+# Native calls both modes make alike per keyframe (the LiDAR cast, iSAM2, its estimates, the
+# cloud down-sampling): their time bounds what any map-update mode can save.
+SHARED_NATIVE = ("mj_multiRay", "update", "calculateEstimate", "calculateEstimatePose3", "extractPose3",
+                 "_voxel_down_sample")
+
+
+def write_profile(path: Path, seed: int, decisions: int, paths: list[list], extra: list[str]) -> dict:
+    """cProfile of one incremental replay, the top functions by own time, to ``path``; returns
+    the profiled CPU seconds and the own seconds of the :data:`SHARED_NATIVE` calls."""
     profiler = cProfile.Profile()
     profiler.enable()
     run = replay(seed, decisions, "incremental", paths, extra)
     profiler.disable()
+    stats = pstats.Stats(profiler)
+    native = {name: 0.0 for name in SHARED_NATIVE}
+    for (_, _, function), (_, _, own, _, _) in stats.stats.items():
+        for name in SHARED_NATIVE:
+            if function.startswith("<built-in method ") and function.endswith(f".{name}>"):
+                native[name] += own
     text = io.StringIO()
     keyframes = len(run["explorer"].session.keyframes)
     text.write(f"incremental replay, seed {seed}, {len(paths)} moves, {keyframes} keyframes, "
-               f"{run['seconds']:.2f} s CPU under the profiler\n")
-    pstats.Stats(profiler, stream=text).sort_stats("tottime").print_stats(40)
+               f"{run['seconds']:.2f} s CPU under the profiler; shared native calls (own s): "
+               f"{ {k: round(v, 3) for k, v in native.items()} }\n")
+    stats.stream = text
+    stats.sort_stats("tottime").print_stats(40)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text.getvalue())
+    return {"seed": seed, "keyframes": keyframes, "profiled_cpu_s": round(run["seconds"], 3),
+            "shared_native_s": {k: round(v, 3) for k, v in native.items()},
+            "shared_native_total_s": round(sum(native.values()), 3)}
 
 
 def map_checks(fast, reference) -> dict:
@@ -160,7 +178,7 @@ def main() -> None:
     totals = {"follow": 0.0, **{mode: 0.0 for mode in MODES}}
     wall = {mode: 0.0 for mode in MODES}
     stages = {mode: {} for mode in MODES}
-    n_decisions, checks = 0, []
+    n_decisions, checks, profile = 0, [], None
     for seed in seeds:
         paths, follow, seed_decisions = record_episode(seed, decisions, args.set)
         best: dict[str, dict] = {}
@@ -170,7 +188,7 @@ def main() -> None:
                 if mode not in best or run["seconds"] < best[mode]["seconds"]:
                     best[mode] = run
         if args.profile is not None and seed == seeds[0]:
-            write_profile(args.profile, seed, decisions, paths, args.set)
+            profile = write_profile(args.profile, seed, decisions, paths, args.set)
         n_decisions += seed_decisions
         totals["follow"] += follow
         for mode, run in best.items():
@@ -178,6 +196,11 @@ def main() -> None:
             wall[mode] += run["wall_seconds"]
             for stage, seconds in run["stages"].items():
                 stages[mode][stage] = stages[mode].get(stage, 0.0) + seconds
+        if profile is not None and profile["seed"] == seed:
+            # The drive with the shared native calls alone (no Python at all), against the
+            # reference's drive on this seed: the speed-up no map-update mode can exceed.
+            floor = follow + profile["shared_native_total_s"]
+            profile["bound_speedup"] = round((follow + best["rebuild"]["seconds"]) / floor, 2)
         checks.append({"seed": seed, "decisions": seed_decisions,
                        **map_checks(best["incremental"]["explorer"], best["rebuild"]["explorer"])})
         print(f"seed {seed}: {seed_decisions} decisions, follow {follow:.2f} s, move rebuild "
@@ -207,6 +230,7 @@ def main() -> None:
         "same_voxels": all(c["same_voxels"] for c in checks),
         "same_explored": all(abs(c["explored"] - c["explored_reference"]) < 0.01 for c in checks),
         "per_seed": checks,
+        "profile": profile,
         "machine": machine(),
     }
     print(f"drive per decision: {drive} ms (reference {drive_reference} ms), speedup {result['speedup']}x; "

@@ -43,7 +43,7 @@ SCRIPTS = [
     ("benchmarks/study_ordering.py", ["--out", "{tmp}/ordering"], ["table", "checks", "plots"]),
     ("benchmarks/sweep_alpha.py", [], ["nearest_travel_m", "nearest_map_error_m", "rows", "chosen_alpha"]),
     ("benchmarks/bench_drive.py", ["--profile", "{tmp}/drive_profile.txt"], ["drive_ms_per_decision", "drive_ms_per_decision_reference", "speedup",
-                                       "max_abs_logodds_diff", "same_voxels", "same_explored"]),
+                                       "max_abs_logodds_diff", "same_voxels", "same_explored", "profile"]),
     ("benchmarks/study_keyframes.py", [], ["table"]),
     ("benchmarks/collect_decisions.py", ["--out", "{tmp}/decisions", "--set", "train.dataset_capacity=16"],
      ["decisions", "layouts", "tasks_done", "wall_s", "decisions_per_s", "decisions_per_s_per_worker"]),
