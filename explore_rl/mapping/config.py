@@ -80,8 +80,9 @@ class MappingConfig:
 
     # How the SLAM session keeps its maps in step when loop closures move poses:
     # "incremental" re-projects only the keyframes whose pose moved by more than a cell
-    # (counted 3D voxels, kept 2D beam cells); "rebuild" is the reference: every keyframe
-    # again whenever any moved (slow; equivalence tests and benchmarks/bench_drive.py).
+    # (counted 3D voxels, kept 2D beam cells, the 2D collapse on the LiDAR's ray grid);
+    # "rebuild" is the reference: every keyframe again whenever any moved, collapse_scan
+    # (slow; equivalence tests and benchmarks/bench_drive.py).
     updates: str = "incremental"
     occupancy: OccupancyConfig = field(default_factory=OccupancyConfig)
     voxels: VoxelConfig = field(default_factory=VoxelConfig)
