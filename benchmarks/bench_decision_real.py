@@ -40,7 +40,6 @@ from explore_rl.planning.learned import (  # noqa: E402
     frontier_covariances,
     landmark_covariances,
     landmarks_near,
-    pairs_in_range_reference,
 )
 from explore_rl.planning.policies import NearestFrontier, PolicyConfig  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
@@ -71,8 +70,8 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
     compact, padded = encode(graph, policy.max_nodes, compact=True), encode(graph, policy.max_nodes)
 
     def reference_landmarks() -> None:  # the frontiers' landmarks, then those near them, full distance matrices
-        frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, pairs_in_range_reference)
-        landmark_covariances(vmap, poses, pose_covs, blocked, near, pairs_in_range_reference)
+        frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, reference=True)
+        landmark_covariances(vmap, poses, pose_covs, blocked, near, reference=True)
 
     parts = {
         "actions": lambda: select_actions(state, planning.actions, planning.revisits),

@@ -239,3 +239,89 @@ class SparseMarginals:
             raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
         pair_ids = np.where(ok, found, zero_id)
         return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns])
+
+
+
+# ---------------------------------------------------------------------- levels by depth
+
+
+class DepthMarginals(SparseMarginals):
+    """:class:`SparseMarginals` with the elimination-tree levels built in one vectorised
+    pass and grouped by depth alone (the base class pads within powers of two of the
+    width, so a pose graph's ~80-deep tree gives ~160 levels, each built by its own
+    ~20 numpy calls). A pose graph's columns have at most a few blocks below the
+    diagonal, so padding a depth to its widest column costs less than the extra levels.
+    The same recurrences on the same factor (equal up to round-off; tests/slam/test_marginals.py),
+    for a decision that needs every keyframe's marginal once (the learned policy)."""
+
+    def _block_factor(self) -> _Factor:
+        n = self.num_blocks
+        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(BLOCK, BLOCK))  # row c of L^T = column c of L
+        by_column.sort_indices()
+        indptr, indices = by_column.indptr, by_column.indices
+        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, BLOCK, BLOCK))])
+        diag_ids = indptr[:-1]
+        if not np.array_equal(indices[diag_ids], np.arange(n)):
+            raise RuntimeError("factor without a full block diagonal")
+        columns = _depth_columns(indptr, indices, n)
+        levels = [_Level(c, *columns.of(c)) for c in columns.levels()]
+        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, BLOCK)
+        return _Factor(blocks, np.linalg.inv(blocks[diag_ids]), d_inv, diag_ids, levels)
+
+
+@dataclass
+class _Columns:
+    """Every block column's rows below the diagonal and the ids the recurrences read,
+    padded to the widest column, and its depth in the elimination tree."""
+
+    rows: np.ndarray  # (N, W) block rows below the diagonal, padded with -1
+    l_ids: np.ndarray  # (N, W) ids of L[row, col] (pad: the zero block)
+    pair_ids: np.ndarray  # (N, W, W) ids of the stored Z[row_a, row_b] (pad: the zero block)
+    pair_transposed: np.ndarray  # (N, W, W) the stored block is Z[row_b, row_a]
+    diag_ids: np.ndarray  # (N,)
+    width: np.ndarray  # (N,) blocks below the diagonal
+    depth: np.ndarray  # (N,) root 0
+
+    def levels(self) -> list[np.ndarray]:
+        """The columns of each depth, root first."""
+        order = np.argsort(self.depth, kind="stable")
+        return np.split(order, np.flatnonzero(np.diff(self.depth[order])) + 1)
+
+    def of(self, columns: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``_Level`` fields (after ``columns``) of ``columns``, trimmed to their widest."""
+        s = max(int(self.width[columns].max()), 1)
+        return (self.rows[columns, :s], self.l_ids[columns, :s], self.pair_ids[columns, :s, :s],
+                self.pair_transposed[columns, :s, :s], self.diag_ids[columns])
+
+
+def _depth_columns(indptr: np.ndarray, indices: np.ndarray, n: int) -> _Columns:
+    """:class:`_Columns` of the block factor stored column by column (``indptr``,
+    ``indices``: rows ascending, the diagonal first); the pairs of rows looked up once,
+    only the ones a column has."""
+    zero_id = len(indices)
+    width = np.diff(indptr) - 1
+    w = max(int(width.max()), 1)
+    slot = np.arange(w)
+    valid = slot[None, :] < width[:, None]
+    l_ids = np.where(valid, indptr[:-1, None] + 1 + slot[None, :], zero_id)
+    rows = np.where(valid, indices[np.minimum(l_ids, zero_id - 1)], -1)
+    # the (a, b) row pairs of every column, flat: column c has width[c]^2 of them
+    squares = width.astype(np.int64) ** 2
+    column = np.repeat(np.arange(n), squares)
+    within = np.arange(int(squares.sum())) - np.repeat(np.cumsum(squares) - squares, squares)
+    i, j = within // width[column], within % width[column]
+    a, b = rows[column, i], rows[column, j]
+    keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)) * n + indices  # sorted
+    wanted = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
+    found = np.minimum(np.searchsorted(keys, wanted), zero_id - 1)
+    if not np.array_equal(keys[found], wanted):
+        raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
+    pair_ids = np.full((n, w, w), zero_id)
+    pair_ids[column, i, j] = found
+    pair_transposed = rows[:, :, None] < rows[:, None, :]
+    parent = np.where(width > 0, rows[:, 0], -1)
+    depth = np.zeros(n, dtype=np.int64)
+    for c in range(n - 1, -1, -1):  # parents come after their children
+        if parent[c] >= 0:
+            depth[c] = depth[parent[c]] + 1
+    return _Columns(rows, l_ids, pair_ids, pair_transposed, indptr[:-1], width, depth)
