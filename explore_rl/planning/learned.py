@@ -180,7 +180,25 @@ def covariances_of(vmap: VirtualMap, index: np.ndarray, landmarks: np.ndarray, f
 
 
 def landmarks_near(vmap: VirtualMap, points: np.ndarray, radius: float) -> np.ndarray:
-    """Indices (ascending) of the virtual landmarks within ``radius`` of any of ``points``."""
+    """Indices (ascending) of the virtual landmarks within ``radius`` of any of ``points``:
+    :func:`landmarks_near_reference` (the same distance expression) over the landmark
+    cells around each point only, not the whole map once per point."""
+    points = np.asarray(points, float).reshape(-1, 2)
+    grid = vmap.landmark_grid
+    half = int(np.ceil(radius / grid.resolution)) + 1  # a centre within radius lies this many cells away at most
+    offsets = np.arange(-half, half + 1)
+    cells = grid.world_to_cell(points)
+    rows = cells[:, 0, None, None] + offsets[None, :, None]
+    cols = cells[:, 1, None, None] + offsets[None, None, :]
+    inside = (rows >= 0) & (rows < grid.ny) & (cols >= 0) & (cols < grid.nx)
+    index = (rows * grid.nx + cols)[inside]
+    point = np.broadcast_to(points[:, None, None, :], inside.shape + (2,))[inside]
+    near = np.linalg.norm(vmap.landmark_xy[index] - point, axis=1) <= radius
+    return np.unique(index[near])
+
+
+def landmarks_near_reference(vmap: VirtualMap, points: np.ndarray, radius: float) -> np.ndarray:
+    """:func:`landmarks_near` as first written: every landmark's distance to each point."""
     points = np.asarray(points, float).reshape(-1, 2)
     near = np.zeros(vmap.num_landmarks, dtype=bool)
     for point in points:
@@ -221,7 +239,7 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
     frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, reference=True)
     extra = None
     if features == "extended":
-        landmarks = landmarks_near(vmap, frontier_xy, vmap.config.sensor_range)
+        landmarks = landmarks_near_reference(vmap, frontier_xy, vmap.config.sensor_range)
         covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, reference=True)
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
