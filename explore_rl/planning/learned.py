@@ -55,7 +55,7 @@ from explore_rl.planning.em import Observations, pose_covariances
 from explore_rl.planning.em_fast import world_from_tangent
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.virtual_map import VirtualMap, fuse_in_order, measurement_noise
-from explore_rl.slam.marginals import DepthMarginals
+from explore_rl.slam.marginals import DepthMarginals, information_from_jacobian
 
 if TYPE_CHECKING:
     from explore_rl.slam.pose_graph import PoseGraph
@@ -269,8 +269,10 @@ def pose_marginals(graph: PoseGraph, poses: np.ndarray, backend: str) -> np.ndar
     its candidates, the graph needs only the diagonal). If that fails, EM's own route
     (which falls back to iSAM2's queries, logged)."""
     if backend == "fast":
-        try:
-            return world_from_tangent(DepthMarginals(graph.information_matrix()).diagonal_blocks(), poses)
+        try:  # the system of PoseGraph.information_matrix, in blocks
+            linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
+            information = information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
+            return world_from_tangent(DepthMarginals(information).diagonal_blocks(), poses)
         except (RuntimeError, ValueError, np.linalg.LinAlgError) as error:
             log.debug("depth-level marginals failed at %d poses (%s); EM's route instead", len(poses), error)
     return pose_covariances(graph, poses, backend)[0]

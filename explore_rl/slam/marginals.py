@@ -257,12 +257,15 @@ class DepthMarginals(SparseMarginals):
     the same ordering and the same permuted matrix for SuperLU."""
 
     def __init__(self, information: sp.spmatrix) -> None:
-        information = sp.csr_matrix(information)
+        """``information``: any sparse ``H``; in 6x6 BSR (:func:`information_from_jacobian`) it is used as it is."""
         size = information.shape[0]
         if information.shape != (size, size) or size % BLOCK:
             raise ValueError(f"information matrix must be square 6N x 6N, got {information.shape}")
         self.num_blocks = size // BLOCK
-        blocks = information.tobsr(blocksize=(BLOCK, BLOCK))
+        if information.format == "bsr" and information.blocksize == (BLOCK, BLOCK):
+            blocks = information.copy()
+        else:
+            blocks = sp.csr_matrix(information).tobsr(blocksize=(BLOCK, BLOCK))
         blocks.sort_indices()
         self.order = np.argsort(_splu(_block_pattern(blocks), "MMD_AT_PLUS_A").perm_c)  # as block_ordering
         self.position = np.argsort(self.order)
@@ -361,3 +364,19 @@ def _permuted_blocks(blocks: sp.bsr_matrix, position: np.ndarray) -> sp.csc_matr
     order = np.lexsort((cols, rows))
     indptr = np.searchsorted(rows[order], np.arange(n + 1))
     return sp.bsr_matrix((blocks.data[order], cols[order], indptr), shape=blocks.shape).tocsc()
+
+
+def information_from_jacobian(rows: np.ndarray, cols: np.ndarray, values: np.ndarray,
+                              num_blocks: int) -> sp.bsr_matrix:
+    """``H = A^T A`` (``6N x 6N``, 6x6 BSR) of a whitened Jacobian given as gtsam's
+    ``sparseJacobian_`` triplets (1-based; the last column is ``b``, dropped) -- the
+    entries of ``PoseGraph.information_matrix`` (same products, same sums), formed block
+    by block: the BSR product and its blocks for :class:`DepthMarginals` cost about half
+    the scalar product and its conversion."""
+    size = BLOCK * num_blocks
+    rows, cols = rows.astype(np.int64) - 1, cols.astype(np.int64) - 1
+    keep = cols < size
+    height = BLOCK * -(-(int(rows.max()) + 1) // BLOCK) if len(rows) else BLOCK  # whole 6-row blocks
+    jacobian = sp.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(height, size))
+    jacobian = jacobian.tobsr(blocksize=(BLOCK, BLOCK))
+    return (jacobian.T @ jacobian).tobsr(blocksize=(BLOCK, BLOCK))
