@@ -245,6 +245,9 @@ class SparseMarginals:
 # ---------------------------------------------------------------------- levels by depth
 
 
+CHAIN_HALVING_MIN = 4  # elimination-tree chains at least this long are eliminated by halving
+
+
 class DepthMarginals(SparseMarginals):
     """:class:`SparseMarginals` with the elimination-tree levels built in one vectorised
     pass and grouped by depth alone (the base class pads within powers of two of the
@@ -267,7 +270,7 @@ class DepthMarginals(SparseMarginals):
         else:
             blocks = sp.csr_matrix(information).tobsr(blocksize=(BLOCK, BLOCK))
         blocks.sort_indices()
-        self.order = np.argsort(_splu(_block_pattern(blocks), "MMD_AT_PLUS_A").perm_c)  # as block_ordering
+        self.order = _chains_halved(_splu(_block_pattern(blocks), "MMD_AT_PLUS_A"))
         self.position = np.argsort(self.order)
         self.lu = _splu(_permuted_blocks(blocks, self.position), "NATURAL")
         identity = np.arange(size)
@@ -380,3 +383,39 @@ def information_from_jacobian(rows: np.ndarray, cols: np.ndarray, values: np.nda
     jacobian = sp.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(height, size))
     jacobian = jacobian.tobsr(blocksize=(BLOCK, BLOCK))
     return (jacobian.T @ jacobian).tobsr(blocksize=(BLOCK, BLOCK))
+
+
+def _chains_halved(pattern_lu: spla.SuperLU) -> np.ndarray:
+    """``order[k]`` = the pose eliminated k-th: :func:`block_ordering`'s minimum degree,
+    except along chains of its elimination tree. Minimum degree eliminates a stretch of
+    keyframes without loops (a corridor driven once) from its end, one after the other:
+    each keyframe's only neighbour left is the next, so the tree has a chain as deep as
+    the stretch is long, and the recurrences need one numpy step per keyframe. Such a
+    chain (each node's only block below the diagonal is its parent, each parent's only
+    child the node) is eliminated instead by halving (every other keyframe first, then
+    every other of the rest, ...): the same positions in the order, the tree as deep as
+    the chain's log2. A chain's nodes touch nothing outside it but the subtrees below it
+    and the node above it, so the rest of the order and its fill are unchanged."""
+    order = np.argsort(pattern_lu.perm_c)  # as block_ordering
+    factor = pattern_lu.L.tocsc()
+    factor.sort_indices()
+    indptr, indices = factor.indptr, factor.indices
+    n = len(order)
+    width = np.diff(indptr) - 1
+    parent = np.where(width > 0, indices[np.minimum(indptr[:-1] + 1, len(indices) - 1)], -1)
+    children = np.bincount(parent[parent >= 0], minlength=n)
+    linked = width == 1
+    follows = np.zeros(n, dtype=bool)  # the node's parent continues its chain
+    follows[linked] = linked[parent[linked]] & (children[parent[linked]] == 1)
+    has_below = np.zeros(n, dtype=bool)
+    has_below[parent[follows]] = True
+    new_order = order.copy()
+    for bottom in np.flatnonzero(linked & follows & ~has_below):
+        chain = [int(bottom)]
+        while follows[chain[-1]]:
+            chain.append(int(parent[chain[-1]]))
+        if len(chain) >= CHAIN_HALVING_MIN:
+            rank = np.arange(1, len(chain) + 1)
+            halving = np.lexsort((rank, np.log2(rank & -rank)))  # ruler order: odd ranks first
+            new_order[np.sort(chain)] = order[np.asarray(chain)[halving]]
+    return new_order
