@@ -19,9 +19,12 @@ as the full map (:class:`~explore_rl.planning.em.Observations`), so the graph is
 
 **Fast path** (issue 24: decide >= 5x faster than EM; ``benchmarks/bench_decision_real.py``):
 every candidate's revisits predicted at once (:func:`~explore_rl.planning.actions.predict_candidate_paths`),
+the pose marginals by depth levels with loop-free chains halved (:func:`pose_marginals`),
 one fusion for the frontiers' landmarks and the extended set's, the pairs within sensor
-range from a KD-tree (:func:`pairs_in_range`), and the encoding padded only to the graph's
-nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
+range from a KD-tree (:func:`pairs_in_range`), their line of sight by length
+(:func:`~explore_rl.mapping.visibility.line_of_sight_by_length`), the observations'
+covariances in closed form (:func:`observed_covariances`), and the encoding padded only to
+the graph's nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
 implementation stays as ``LearnedPolicy(reference=True)``; tests compare both on real
 states (same graph, same frontier, logits within 1e-5).
 """
