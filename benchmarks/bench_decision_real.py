@@ -3,9 +3,11 @@
 The states are those of an exploration driven by the learned policy (the shipped actor,
 ``graph.max_nodes=1024``, the real front end ``slam=icp``) in the zero-shot scenes street
 and garage: every ``EVERY``-th decision, the same state is handed to EM (default fast
-backend), to the learned policy's fast path (one landmark fusion, KD-tree pairs, the
-encoding padded only to the graph's nodes) and to its reference (the first
-implementation, padded to ``graph.max_nodes``), and to nearest frontier. Times are each
+backend), to the learned policy's fast path (the pose marginals by depth levels with
+loop-free chains halved, one landmark fusion, KD-tree pairs, line of sight by length,
+closed-form observations, the encoding padded only to the graph's nodes) and to its
+reference (the first implementation, EM's marginals, padded to ``graph.max_nodes``),
+and to nearest frontier. Times are each
 policy's ``choose``; ``ms_state`` is the state itself (frontiers, Dijkstra, paths: what
 every policy pays before choosing, timed once per decision), so ``em_over_learned_decide``
 compares what the runner's ``ms_decide`` column holds. On every state the fast path and
@@ -40,7 +42,7 @@ from explore_rl.planning.learned import (  # noqa: E402
     frontier_covariances,
     landmark_covariances,
     landmarks_near,
-    pairs_in_range_reference,
+    pose_marginals,
 )
 from explore_rl.planning.policies import NearestFrontier, PolicyConfig  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
@@ -57,7 +59,7 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
     vmap = policy.virtual_map(session.occupancy.grid)
     actions = select_actions(state, planning.actions, planning.revisits)
     poses = session.graph.poses_se2()
-    pose_covs, _ = pose_covariances(session.graph, poses, planning.em.backend)
+    pose_covs = pose_marginals(session.graph, poses, planning.em.backend)
     blocked, frontier_xy, radius = session.occupancy.known_occupied, action_frontiers(state, actions), \
         vmap.config.sensor_range
     index = vmap.landmark_index(frontier_xy)
@@ -71,13 +73,14 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
     compact, padded = encode(graph, policy.max_nodes, compact=True), encode(graph, policy.max_nodes)
 
     def reference_landmarks() -> None:  # the frontiers' landmarks, then those near them, full distance matrices
-        frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, pairs_in_range_reference)
-        landmark_covariances(vmap, poses, pose_covs, blocked, near, pairs_in_range_reference)
+        frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, reference=True)
+        landmark_covariances(vmap, poses, pose_covs, blocked, near, reference=True)
 
     parts = {
         "actions": lambda: select_actions(state, planning.actions, planning.revisits),
         "actions_reference": lambda: select_actions(state, planning.actions, planning.revisits, reference=True),
-        "marginals": lambda: pose_covariances(session.graph, poses, planning.em.backend),
+        "marginals": lambda: pose_marginals(session.graph, poses, planning.em.backend),
+        "marginals_reference": lambda: pose_covariances(session.graph, poses, planning.em.backend),
         "landmarks": lambda: landmark_covariances(vmap, poses, pose_covs, blocked, landmarks),
         "landmarks_reference": reference_landmarks,
         "extras": lambda: frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near], covs, radius),

@@ -21,6 +21,7 @@ running exploration.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
@@ -136,12 +137,17 @@ def unique_edges(pairs: np.ndarray) -> np.ndarray:
     """``(E, 2)`` sorted unique undirected pairs ``i < j`` (self-loops dropped)."""
     pairs = np.sort(np.asarray(pairs, dtype=np.int64).reshape(-1, 2), axis=1)
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    return np.unique(pairs, axis=0) if len(pairs) else pairs
+    if not len(pairs):
+        return pairs
+    size = int(pairs.max()) + 1  # one integer key per pair orders them as (i, j) does
+    keys = np.unique(pairs[:, 0] * size + pairs[:, 1])
+    return np.column_stack([keys // size, keys % size])
 
 
 def factor_edges(edges: Sequence[tuple[int, int, str]]) -> np.ndarray:
     """Keyframe pairs ``(M, 2)`` of a pose graph's between factors (``PoseGraph.edges``)."""
-    return np.array([(i, j) for i, j, _ in edges], dtype=np.int64).reshape(-1, 2)
+    pairs = itertools.chain.from_iterable((i, j) for i, j, _ in edges)
+    return np.fromiter(pairs, dtype=np.int64, count=2 * len(edges)).reshape(-1, 2)
 
 
 def graph_from_state(state: ExplorationState, context: DecisionContext,

@@ -20,6 +20,7 @@ model, ``model.feature_scale``) that brings it to order one.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -75,9 +76,20 @@ def disc_fraction(mask: np.ndarray, cell: np.ndarray, radius_cells: int) -> floa
     iy, ix = int(cell[0]), int(cell[1])
     y0, y1 = max(iy - radius_cells, 0), min(iy + radius_cells + 1, mask.shape[0])
     x0, x1 = max(ix - radius_cells, 0), min(ix + radius_cells + 1, mask.shape[1])
-    yy, xx = np.mgrid[y0:y1, x0:x1]
-    inside = (yy - iy) ** 2 + (xx - ix) ** 2 <= radius_cells ** 2
+    if y1 <= y0 or x1 <= x0:
+        return 0.0
+    top, left = iy - radius_cells, ix - radius_cells
+    inside = disc(radius_cells)[y0 - top: y1 - top, x0 - left: x1 - left]  # the disc's cells inside the grid
     return float(mask[y0:y1, x0:x1][inside].mean()) if inside.any() else 0.0
+
+
+@functools.lru_cache(maxsize=8)
+def disc(radius_cells: int) -> np.ndarray:
+    """``(2r + 1, 2r + 1)``: the cells within ``r`` cells of the centre one (built once per radius)."""
+    offset = np.arange(-radius_cells, radius_cells + 1)
+    inside = offset[:, None] ** 2 + offset[None, :] ** 2 <= radius_cells ** 2
+    inside.flags.writeable = False
+    return inside
 
 
 def frontier_extras(state: ExplorationState, actions: list[Action], pose_covs: np.ndarray,

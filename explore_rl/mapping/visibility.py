@@ -80,3 +80,91 @@ def _segments_clear(
     hit = padded_blocked[iy * (grid.nx + 2) + ix]
     hit &= t[None, :] < stop[:, None]
     return ~np.any(hit, axis=1)
+
+
+LENGTH_GROUPS = 8  # segments sorted by length into this many groups of equal count
+
+
+def line_of_sight_by_length(
+    start_xy: np.ndarray,
+    end_xy: np.ndarray,
+    blocked: np.ndarray,
+    grid: GridSpec,
+    step_fraction: float,
+    end_box: float = 0.0,
+    max_batch_samples: int = 2_000_000,
+) -> np.ndarray:
+    """:func:`line_of_sight`, the same samples and answers, cheaper for many segments of
+    mixed lengths on a mostly free grid: a segment whose bounding box (one cell wider
+    on each side than any sample can reach) holds no blocked cell is clear without
+    sampling (a summed-area table of the blocked cells); the others sorted by length into
+    ``LENGTH_GROUPS`` groups, each sampled only as far as its longest needs (one batch
+    samples every segment as far as the longest), and a segment blocked when its first
+    blocked sample lies before its stop (one ``argmax`` instead of masking every sample)."""
+    start_xy = np.asarray(start_xy, float).reshape(-1, 2)
+    end_xy = np.asarray(end_xy, float).reshape(-1, 2)
+    blocked = np.asarray(blocked, dtype=bool)
+    if blocked.shape != grid.shape:
+        raise ValueError(f"blocked mask {blocked.shape} != grid shape {grid.shape}")
+    clear = np.ones(len(start_xy), dtype=bool)
+    if len(start_xy) == 0:
+        return clear
+    delta = end_xy - start_xy
+    dx, dy = delta[:, 0], delta[:, 1]
+    length = np.sqrt(dx * dx + dy * dy)  # np.linalg.norm's sum of squares, without its reduction
+    unit = delta / np.where(length > 0, length, 1.0)[:, None]
+    stop = length
+    if end_box > 0:  # _box_entry_distance, the steeper component without a reduction
+        steepest = np.maximum(np.maximum(np.abs(unit[:, 0]), np.abs(unit[:, 1])), np.finfo(float).tiny)
+        stop = np.maximum(length - 0.5 * end_box / steepest, 0.0)
+    step = step_fraction * grid.resolution
+    samples = np.maximum(np.ceil(stop / step).astype(np.int64), 1)
+    padded = np.pad(blocked, 1)
+    maybe = np.flatnonzero(_box_holds_blocked(start_xy, end_xy, padded, grid))
+    order = maybe[np.argsort(samples[maybe], kind="stable")]
+    padded = padded.ravel()
+    for group in np.array_split(order, min(LENGTH_GROUPS, len(order))) if len(order) else []:
+        n_samples = int(samples[group[-1]])
+        batch = max(1, max_batch_samples // n_samples)
+        for lo in range(0, len(group), batch):
+            rows = group[lo: lo + batch]
+            clear[rows] = _first_hit_clear(start_xy[rows], unit[rows], stop[rows], padded, grid, step, n_samples)
+    return clear
+
+
+def _box_holds_blocked(start_xy: np.ndarray, end_xy: np.ndarray, padded_blocked: np.ndarray,
+                       grid: GridSpec) -> np.ndarray:
+    """Whether the cells (of the grid with its free 1-cell border) that a segment's samples
+    can fall in, widened by one cell on each side against round-off, hold a blocked cell."""
+    table = np.zeros((padded_blocked.shape[0] + 1, padded_blocked.shape[1] + 1), dtype=np.int32)
+    table[1:, 1:] = padded_blocked.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)  # table[i, j]: blocked cells in [:i, :j]
+    origin = np.asarray(grid.origin[:2], float)
+    low = np.floor((np.minimum(start_xy, end_xy) - origin) / grid.resolution).astype(np.int64)  # +1 border -1 margin
+    high = np.floor((np.maximum(start_xy, end_xy) - origin) / grid.resolution).astype(np.int64) + 2
+    limit = np.array([grid.nx + 1, grid.ny + 1])
+    low, high = np.clip(low, 0, limit), np.clip(high, 0, limit) + 1
+    count = (table[high[:, 1], high[:, 0]] - table[low[:, 1], high[:, 0]] - table[high[:, 1], low[:, 0]]
+             + table[low[:, 1], low[:, 0]])
+    return count > 0
+
+
+def _first_hit_clear(start_xy: np.ndarray, unit: np.ndarray, stop: np.ndarray, padded_blocked: np.ndarray,
+                     grid: GridSpec, step: float, n_samples: int) -> np.ndarray:
+    """:func:`_segments_clear` (same sample positions and cells): clipping the sample
+    coordinates before truncating them gives the same cells, and a segment is blocked
+    iff its first blocked sample lies before its stop."""
+    t = step * np.arange(1, n_samples + 1)
+    col = (start_xy[:, 0:1] - grid.origin[0]) / grid.resolution + 1.0
+    row = (start_xy[:, 1:2] - grid.origin[1]) / grid.resolution + 1.0
+    x = (t / grid.resolution) * unit[:, 0:1]
+    x += col
+    np.clip(x, 0, grid.nx + 1, out=x)
+    y = (t / grid.resolution) * unit[:, 1:2]
+    y += row
+    np.clip(y, 0, grid.ny + 1, out=y)
+    cell = y.astype(np.int32)
+    cell *= grid.nx + 2
+    cell += x.astype(np.int32)
+    hit = padded_blocked[cell]
+    first = np.argmax(hit, axis=1)
+    return ~(hit[np.arange(len(first)), first] & (t[first] < stop))

@@ -19,17 +19,21 @@ as the full map (:class:`~explore_rl.planning.em.Observations`), so the graph is
 
 **Fast path** (issue 24: decide >= 5x faster than EM; ``benchmarks/bench_decision_real.py``):
 every candidate's revisits predicted at once (:func:`~explore_rl.planning.actions.predict_candidate_paths`),
+the pose marginals by depth levels with loop-free chains halved (:func:`pose_marginals`),
 one fusion for the frontiers' landmarks and the extended set's, the pairs within sensor
-range from a KD-tree (:func:`pairs_in_range`), and the encoding padded only to the graph's
-nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
+range from a KD-tree (:func:`pairs_in_range`), their line of sight by length
+(:func:`~explore_rl.mapping.visibility.line_of_sight_by_length`), the observations'
+covariances in closed form (:func:`observed_covariances`), and the encoding padded only to
+the graph's nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
 implementation stays as ``LearnedPolicy(reference=True)``; tests compare both on real
 states (same graph, same frontier, logits within 1e-5).
 """
 
 from __future__ import annotations
 
+import logging
 import time
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -45,38 +49,73 @@ from explore_rl.graph.exploration_graph import (
 )
 from explore_rl.graph.features import frontier_extras
 from explore_rl.grid import GridSpec
-from explore_rl.mapping.visibility import line_of_sight
+from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
 from explore_rl.planning.actions import Action, select_actions
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.em import Observations, pose_covariances
+from explore_rl.planning.em_fast import world_from_tangent
 from explore_rl.planning.policies import PolicyConfig
-from explore_rl.planning.virtual_map import VirtualMap
+from explore_rl.planning.virtual_map import VirtualMap, fuse_in_order, measurement_noise
+from explore_rl.slam.marginals import DepthMarginals, information_from_jacobian
 
 if TYPE_CHECKING:
+    from explore_rl.slam.pose_graph import PoseGraph
     from explore_rl.state import ExplorationState
 
+log = logging.getLogger(__name__)
 
-# (pose_xy (P, 2), landmark_xy (L, 2), radius) -> (pose index, landmark index) within radius
-PairFinder = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
+
 # relative and absolute slack of the KD-tree's radius over the exact test (which is applied after)
 KD_MARGIN = 1e-9
 
 
-def landmark_observations(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray,
-                          landmarks: np.ndarray, pairs: PairFinder | None = None) -> Observations:
-    """The observations of ``landmarks`` only, exactly as ``vmap.visible_pairs`` would
-    list them among all pairs: within ``sensor_range`` (same distance expression) and in
-    line of sight (same test and parameters), in pose order. ``pairs``: how the pairs in
-    range are found (default :func:`pairs_in_range`)."""
+def visible_pairs_of(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray, landmarks: np.ndarray,
+                     reference: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """``(pose, landmark)`` index pairs of the observations of ``landmarks`` only, exactly
+    as ``vmap.visible_pairs`` would list them among all pairs: within ``sensor_range``
+    (same distance expression) and in line of sight (same test and parameters), in pose
+    order. ``reference``: the pairs from the full distance matrix and one line-of-sight
+    batch (the first code); else a KD-tree (:func:`pairs_in_range`) and the segments
+    grouped by length (:func:`~explore_rl.mapping.visibility.line_of_sight_by_length`)."""
     config = vmap.config
-    pose_idx, slot = (pairs or pairs_in_range)(poses[:, :2], vmap.landmark_xy[landmarks], config.sensor_range)
+    pairs = pairs_in_range_reference if reference else pairs_in_range
+    pose_idx, slot = pairs(poses[:, :2], vmap.landmark_xy[landmarks], config.sensor_range)
     landmark_idx = landmarks[slot]
-    visible = line_of_sight(poses[pose_idx, :2], vmap.landmark_xy[landmark_idx], blocked, vmap.grid,
-                            config.los_step_fraction, end_box=config.cell_size,
-                            max_batch_samples=config.max_batch_samples)
-    return Observations.of_pairs(vmap, poses, pose_idx[visible], landmark_idx[visible])
+    visibility = line_of_sight if reference else line_of_sight_by_length
+    visible = visibility(poses[pose_idx, :2], vmap.landmark_xy[landmark_idx], blocked, vmap.grid,
+                         config.los_step_fraction, end_box=config.cell_size,
+                         max_batch_samples=config.max_batch_samples)
+    return pose_idx[visible], landmark_idx[visible]
+
+
+def observed_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, pose_idx: np.ndarray,
+                         landmark_idx: np.ndarray) -> np.ndarray:
+    """``(M, 2, 2)``: the covariance of landmark ``landmark_idx[m]`` as seen from pose
+    ``pose_idx[m]`` -- :meth:`~explore_rl.planning.em.Observations.landmark_covariances`
+    (``H_l^-1 (R + H_x S H_x^T) H_l^-T``) in closed form: with ``(dx, dy)`` the
+    (range-clamped) offset to the landmark and ``u`` its direction, ``H_l^-1 H_x =
+    [[-1, 0, dy], [0, -1, -dx]]`` (the landmark moves with the pose) and ``H_l^-1 R H_l^-T
+    = s_b^2 (-dy, dx)(-dy, dx)^T + s_r^2 u u^T`` -- elementwise, without the ~4 batched
+    2x2/2x3 products and inverses per observation (equal up to round-off)."""
+    config = vmap.config
+    d = vmap.landmark_xy[landmark_idx] - poses[pose_idx, :2]
+    r = np.hypot(d[:, 0], d[:, 1])  # as range_bearing_jacobians: clamped range, bearing +x at zero
+    r_eff = np.maximum(r, config.min_range)
+    safe_r = np.where(r > 0, r, 1.0)
+    ux = np.where(r > 0, d[:, 0] / safe_r, 1.0)
+    uy = np.where(r > 0, d[:, 1] / safe_r, 0.0)
+    dx, dy = ux * r_eff, uy * r_eff
+    noise = measurement_noise(config)
+    s_b, s_r = noise[0, 0], noise[1, 1]
+    s = pose_covs[pose_idx]
+    sxx, sxy, sxt, syy, syt, stt = s[:, 0, 0], s[:, 0, 1], s[:, 0, 2], s[:, 1, 1], s[:, 1, 2], s[:, 2, 2]
+    covs = np.empty((len(r), 2, 2))
+    covs[:, 0, 0] = s_b * dy * dy + s_r * ux * ux + sxx - 2.0 * dy * sxt + dy * dy * stt
+    covs[:, 0, 1] = covs[:, 1, 0] = (-s_b * dx * dy + s_r * ux * uy + sxy - dy * syt + dx * sxt - dx * dy * stt)
+    covs[:, 1, 1] = s_b * dx * dx + s_r * uy * uy + syy + 2.0 * dx * syt + dx * dx * stt
+    return covs
 
 
 def pairs_in_range(pose_xy: np.ndarray, landmark_xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -104,29 +143,34 @@ def pairs_in_range_reference(pose_xy: np.ndarray, landmark_xy: np.ndarray,
 
 
 def landmark_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
-                         landmarks: np.ndarray, pairs: PairFinder | None = None) -> np.ndarray:
+                         landmarks: np.ndarray, reference: bool = False) -> np.ndarray:
     """``(L, 2, 2)``: the fused covariances of the virtual landmarks ``landmarks`` (unique
     indices, ascending) after every keyframe's observations -- as in the fully fused map
-    (each landmark is fused on its own), from their observations alone."""
+    (each landmark is fused on its own), from their observations alone. ``reference``:
+    as first written (:func:`visible_pairs_of`'s reference, EM's
+    :class:`~explore_rl.planning.em.Observations`); else :func:`observed_covariances`."""
     prior = vmap.config.prior_std**2 * np.eye(2)  # as VirtualMap.prior_covariances
     fused = np.repeat(prior[None], len(landmarks), axis=0)
     if len(landmarks):
-        observations = landmark_observations(vmap, poses, blocked, landmarks, pairs)
-        compact = Observations(observations.pose_idx, np.searchsorted(landmarks, observations.landmark_idx),
-                               observations.gain, observations.noise)
-        fused = compact.fuse(fused, pose_covs)
+        pose_idx, landmark_idx = visible_pairs_of(vmap, poses, blocked, landmarks, reference)
+        slot = np.searchsorted(landmarks, landmark_idx)
+        if reference:
+            observations = Observations.of_pairs(vmap, poses, pose_idx, landmark_idx)
+            fused = Observations(pose_idx, slot, observations.gain, observations.noise).fuse(fused, pose_covs)
+        elif len(pose_idx):
+            fuse_in_order(fused, slot, observed_covariances(vmap, poses, pose_covs, pose_idx, landmark_idx))
     return fused
 
 
 def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
-                         frontier_xy: np.ndarray, pairs: PairFinder | None = None) -> np.ndarray:
+                         frontier_xy: np.ndarray, reference: bool = False) -> np.ndarray:
     """``(F, 2, 2)``: the virtual-landmark covariance of each frontier's cell after every
     keyframe's observations -- ``vmap.frontier_landmark_covariance`` of the fully fused
     map, computed from the frontiers' landmarks alone (the prior outside the map)."""
     index = vmap.landmark_index(np.asarray(frontier_xy, float).reshape(-1, 2))
     landmarks = np.unique(index[index >= 0])
     return covariances_of(vmap, index, landmarks, landmark_covariances(vmap, poses, pose_covs, blocked, landmarks,
-                                                                       pairs))
+                                                                       reference))
 
 
 def covariances_of(vmap: VirtualMap, index: np.ndarray, landmarks: np.ndarray, fused: np.ndarray) -> np.ndarray:
@@ -139,7 +183,25 @@ def covariances_of(vmap: VirtualMap, index: np.ndarray, landmarks: np.ndarray, f
 
 
 def landmarks_near(vmap: VirtualMap, points: np.ndarray, radius: float) -> np.ndarray:
-    """Indices (ascending) of the virtual landmarks within ``radius`` of any of ``points``."""
+    """Indices (ascending) of the virtual landmarks within ``radius`` of any of ``points``:
+    :func:`landmarks_near_reference` (the same distance expression) over the landmark
+    cells around each point only, not the whole map once per point."""
+    points = np.asarray(points, float).reshape(-1, 2)
+    grid = vmap.landmark_grid
+    half = int(np.ceil(radius / grid.resolution)) + 1  # a centre within radius lies this many cells away at most
+    offsets = np.arange(-half, half + 1)
+    cells = grid.world_to_cell(points)
+    rows = cells[:, 0, None, None] + offsets[None, :, None]
+    cols = cells[:, 1, None, None] + offsets[None, None, :]
+    inside = (rows >= 0) & (rows < grid.ny) & (cols >= 0) & (cols < grid.nx)
+    index = (rows * grid.nx + cols)[inside]
+    point = np.broadcast_to(points[:, None, None, :], inside.shape + (2,))[inside]
+    near = np.linalg.norm(vmap.landmark_xy[index] - point, axis=1) <= radius
+    return np.unique(index[near])
+
+
+def landmarks_near_reference(vmap: VirtualMap, points: np.ndarray, radius: float) -> np.ndarray:
+    """:func:`landmarks_near` as first written: every landmark's distance to each point."""
     points = np.asarray(points, float).reshape(-1, 2)
     near = np.zeros(vmap.num_landmarks, dtype=bool)
     for point in points:
@@ -156,7 +218,7 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     (their mean uncertainty is a column), still a small part of the map: one fusion of the
     frontiers' landmarks and those together (each landmark is fused on its own, so a
     frontier's covariance is the same whatever else is fused with it)."""
-    poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
+    poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend, fast=True)
     index = vmap.landmark_index(frontier_xy)
     near = (landmarks_near(vmap, frontier_xy, vmap.config.sensor_range) if features == "extended"
             else np.zeros(0, dtype=np.int64))
@@ -177,25 +239,46 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
     the frontiers' landmarks and the extended set's landmarks fused separately, pairs
     in range from the full distance matrix."""
     poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
-    frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, pairs_in_range_reference)
+    frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, reference=True)
     extra = None
     if features == "extended":
-        landmarks = landmarks_near(vmap, frontier_xy, vmap.config.sensor_range)
-        covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, pairs_in_range_reference)
+        landmarks = landmarks_near_reference(vmap, frontier_xy, vmap.config.sensor_range)
+        covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, reference=True)
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
                                 factor_edges(state.session.graph.edges), extra)
 
 
-def decision_estimates(state: ExplorationState, actions: list[Action],
-                       backend: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def decision_estimates(state: ExplorationState, actions: list[Action], backend: str,
+                       fast: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Keyframe estimates ``(K, 3)``, their world-frame marginals ``(K, 3, 3)``, the
-    known-occupied cells and the action frontiers' waypoints ``(F, 2)``."""
+    known-occupied cells and the action frontiers' waypoints ``(F, 2)``. ``fast``: the
+    marginals by :func:`pose_marginals` (else EM's :func:`~explore_rl.planning.em.pose_covariances`)."""
     session = state.session
     poses = session.graph.poses_se2()
-    pose_covs, _ = pose_covariances(session.graph, poses, backend)
+    if fast:
+        pose_covs = pose_marginals(session.graph, poses, backend)
+    else:
+        pose_covs, _ = pose_covariances(session.graph, poses, backend)
     return poses, pose_covs, session.occupancy.known_occupied, action_frontiers(state, actions)
+
+
+def pose_marginals(graph: PoseGraph, poses: np.ndarray, backend: str) -> np.ndarray:
+    """``(K, 3, 3)`` world-frame marginals of every keyframe, as EM's
+    :func:`~explore_rl.planning.em.pose_covariances`: with ``backend=fast`` from the same
+    factorisation and recurrences, the elimination-tree levels built at once
+    (:class:`~explore_rl.slam.marginals.DepthMarginals`; EM keeps its factorisation for
+    its candidates, the graph needs only the diagonal). If that fails, EM's own route
+    (which falls back to iSAM2's queries, logged)."""
+    if backend == "fast":
+        try:  # the system of PoseGraph.information_matrix, in blocks
+            linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
+            information = information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
+            return world_from_tangent(DepthMarginals(information).diagonal_blocks(), poses)
+        except (RuntimeError, ValueError, np.linalg.LinAlgError) as error:
+            log.debug("depth-level marginals failed at %d poses (%s); EM's route instead", len(poses), error)
+    return pose_covariances(graph, poses, backend)[0]
 
 
 def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:

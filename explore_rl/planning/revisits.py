@@ -15,7 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from explore_rl.grid import GridSpec
-from explore_rl.mapping.visibility import line_of_sight
+from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.planning.config import RevisitConfig
 
 
@@ -213,12 +213,13 @@ def predict_revisits_reference(path_xy: np.ndarray, keyframe_xy: np.ndarray, key
 def distinct_line_of_sight(start_xy: np.ndarray, start_id: np.ndarray, kf_idx: np.ndarray, keyframe_xy: np.ndarray,
                            blocked: np.ndarray, grid: GridSpec, step_fraction: float) -> np.ndarray:
     """:func:`line_of_sight` from each ``start_xy`` to keyframe ``kf_idx``, each distinct
-    (start, keyframe) pair tested once (a segment's test depends on its ends only);
+    (start, keyframe) pair tested once (a segment's test depends on its ends only; the
+    same answers by :func:`~explore_rl.mapping.visibility.line_of_sight_by_length`);
     ``start_id``: equal for equal starts (:func:`distinct_ids`)."""
     if len(start_xy) == 0:
         return np.ones(0, dtype=bool)
     _, first, inverse = np.unique(start_id * len(keyframe_xy) + kf_idx, return_index=True, return_inverse=True)
-    clear = line_of_sight(start_xy[first], keyframe_xy[kf_idx[first]], blocked, grid, step_fraction)
+    clear = line_of_sight_by_length(start_xy[first], keyframe_xy[kf_idx[first]], blocked, grid, step_fraction)
     return clear[inverse.reshape(-1)]
 
 

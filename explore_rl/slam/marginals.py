@@ -239,3 +239,183 @@ class SparseMarginals:
             raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
         pair_ids = np.where(ok, found, zero_id)
         return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns])
+
+
+
+# ---------------------------------------------------------------------- levels by depth
+
+
+CHAIN_HALVING_MIN = 4  # elimination-tree chains at least this long are eliminated by halving
+
+
+class DepthMarginals(SparseMarginals):
+    """:class:`SparseMarginals` with the elimination-tree levels built in one vectorised
+    pass and grouped by depth alone (the base class pads within powers of two of the
+    width, so a pose graph's ~80-deep tree gives ~160 levels, each built by its own
+    ~20 numpy calls). A pose graph's columns have at most a few blocks below the
+    diagonal, so padding a depth to its widest column costs less than the extra levels.
+    The same recurrences on the same factor (equal up to round-off; tests/slam/test_marginals.py),
+    for a decision that needs every keyframe's marginal once (the learned policy). The
+    matrix is permuted block by block (one BSR conversion, no scalar fancy indexing):
+    the same ordering and the same permuted matrix for SuperLU."""
+
+    def __init__(self, information: sp.spmatrix) -> None:
+        """``information``: any sparse ``H``; in 6x6 BSR (:func:`information_from_jacobian`) it is used as it is."""
+        size = information.shape[0]
+        if information.shape != (size, size) or size % BLOCK:
+            raise ValueError(f"information matrix must be square 6N x 6N, got {information.shape}")
+        self.num_blocks = size // BLOCK
+        if information.format == "bsr" and information.blocksize == (BLOCK, BLOCK):
+            blocks = information.copy()
+        else:
+            blocks = sp.csr_matrix(information).tobsr(blocksize=(BLOCK, BLOCK))
+        blocks.sort_indices()
+        self.order = _chains_halved(_splu(_block_pattern(blocks), "MMD_AT_PLUS_A"))
+        self.position = np.argsort(self.order)
+        self.lu = _splu(_permuted_blocks(blocks, self.position), "NATURAL")
+        identity = np.arange(size)
+        if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
+            raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
+        self._columns, self._diagonal, self._factor = {}, None, None
+
+    def _block_factor(self) -> _Factor:
+        n = self.num_blocks
+        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(BLOCK, BLOCK))  # row c of L^T = column c of L
+        by_column.sort_indices()
+        indptr, indices = by_column.indptr, by_column.indices
+        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, BLOCK, BLOCK))])
+        diag_ids = indptr[:-1]
+        if not np.array_equal(indices[diag_ids], np.arange(n)):
+            raise RuntimeError("factor without a full block diagonal")
+        columns = _depth_columns(indptr, indices, n)
+        levels = [_Level(c, *columns.of(c)) for c in columns.levels()]
+        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, BLOCK)
+        return _Factor(blocks, np.linalg.inv(blocks[diag_ids]), d_inv, diag_ids, levels)
+
+
+@dataclass
+class _Columns:
+    """Every block column's rows below the diagonal and the ids the recurrences read,
+    padded to the widest column, and its depth in the elimination tree."""
+
+    rows: np.ndarray  # (N, W) block rows below the diagonal, padded with -1
+    l_ids: np.ndarray  # (N, W) ids of L[row, col] (pad: the zero block)
+    pair_ids: np.ndarray  # (N, W, W) ids of the stored Z[row_a, row_b] (pad: the zero block)
+    pair_transposed: np.ndarray  # (N, W, W) the stored block is Z[row_b, row_a]
+    diag_ids: np.ndarray  # (N,)
+    width: np.ndarray  # (N,) blocks below the diagonal
+    depth: np.ndarray  # (N,) root 0
+
+    def levels(self) -> list[np.ndarray]:
+        """The columns of each depth, root first."""
+        order = np.argsort(self.depth, kind="stable")
+        return np.split(order, np.flatnonzero(np.diff(self.depth[order])) + 1)
+
+    def of(self, columns: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``_Level`` fields (after ``columns``) of ``columns``, trimmed to their widest."""
+        s = max(int(self.width[columns].max()), 1)
+        return (self.rows[columns, :s], self.l_ids[columns, :s], self.pair_ids[columns, :s, :s],
+                self.pair_transposed[columns, :s, :s], self.diag_ids[columns])
+
+
+def _depth_columns(indptr: np.ndarray, indices: np.ndarray, n: int) -> _Columns:
+    """:class:`_Columns` of the block factor stored column by column (``indptr``,
+    ``indices``: rows ascending, the diagonal first); the pairs of rows looked up once,
+    only the ones a column has."""
+    zero_id = len(indices)
+    width = np.diff(indptr) - 1
+    w = max(int(width.max()), 1)
+    slot = np.arange(w)
+    valid = slot[None, :] < width[:, None]
+    l_ids = np.where(valid, indptr[:-1, None] + 1 + slot[None, :], zero_id)
+    rows = np.where(valid, indices[np.minimum(l_ids, zero_id - 1)], -1)
+    # the (a, b) row pairs of every column, flat: column c has width[c]^2 of them
+    squares = width.astype(np.int64) ** 2
+    column = np.repeat(np.arange(n), squares)
+    within = np.arange(int(squares.sum())) - np.repeat(np.cumsum(squares) - squares, squares)
+    i, j = within // width[column], within % width[column]
+    a, b = rows[column, i], rows[column, j]
+    keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)) * n + indices  # sorted
+    wanted = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
+    found = np.minimum(np.searchsorted(keys, wanted), zero_id - 1)
+    if not np.array_equal(keys[found], wanted):
+        raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
+    pair_ids = np.full((n, w, w), zero_id)
+    pair_ids[column, i, j] = found
+    pair_transposed = rows[:, :, None] < rows[:, None, :]
+    parent = np.where(width > 0, rows[:, 0], -1)
+    depth = np.zeros(n, dtype=np.int64)
+    for c in range(n - 1, -1, -1):  # parents come after their children
+        if parent[c] >= 0:
+            depth[c] = depth[parent[c]] + 1
+    return _Columns(rows, l_ids, pair_ids, pair_transposed, indptr[:-1], width, depth)
+
+
+def _block_pattern(blocks: sp.bsr_matrix) -> sp.csc_matrix:
+    """The pose-level matrix :func:`block_ordering` orders: a one per stored block, ``N``
+    on the diagonal."""
+    n = blocks.shape[0] // BLOCK
+    pattern = sp.csr_matrix((np.ones(len(blocks.indices)), blocks.indices, blocks.indptr), shape=(n, n))
+    return (pattern + sp.identity(n, format="csr") * n).tocsc()
+
+
+def _permuted_blocks(blocks: sp.bsr_matrix, position: np.ndarray) -> sp.csc_matrix:
+    """The scalar matrix with block ``(i, j)`` of ``blocks`` moved to ``(position[i], position[j])``."""
+    n = len(position)
+    rows = position[np.repeat(np.arange(n), np.diff(blocks.indptr))]
+    cols = position[blocks.indices]
+    order = np.lexsort((cols, rows))
+    indptr = np.searchsorted(rows[order], np.arange(n + 1))
+    return sp.bsr_matrix((blocks.data[order], cols[order], indptr), shape=blocks.shape).tocsc()
+
+
+def information_from_jacobian(rows: np.ndarray, cols: np.ndarray, values: np.ndarray,
+                              num_blocks: int) -> sp.bsr_matrix:
+    """``H = A^T A`` (``6N x 6N``, 6x6 BSR) of a whitened Jacobian given as gtsam's
+    ``sparseJacobian_`` triplets (1-based; the last column is ``b``, dropped) -- the
+    entries of ``PoseGraph.information_matrix`` (same products, same sums), formed block
+    by block: the BSR product and its blocks for :class:`DepthMarginals` cost about half
+    the scalar product and its conversion."""
+    size = BLOCK * num_blocks
+    rows, cols = rows.astype(np.int64) - 1, cols.astype(np.int64) - 1
+    keep = cols < size
+    height = BLOCK * -(-(int(rows.max()) + 1) // BLOCK) if len(rows) else BLOCK  # whole 6-row blocks
+    jacobian = sp.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(height, size))
+    jacobian = jacobian.tobsr(blocksize=(BLOCK, BLOCK))
+    return (jacobian.T @ jacobian).tobsr(blocksize=(BLOCK, BLOCK))
+
+
+def _chains_halved(pattern_lu: spla.SuperLU) -> np.ndarray:
+    """``order[k]`` = the pose eliminated k-th: :func:`block_ordering`'s minimum degree,
+    except along chains of its elimination tree. Minimum degree eliminates a stretch of
+    keyframes without loops (a corridor driven once) from its end, one after the other:
+    each keyframe's only neighbour left is the next, so the tree has a chain as deep as
+    the stretch is long, and the recurrences need one numpy step per keyframe. Such a
+    chain (each node's only block below the diagonal is its parent, each parent's only
+    child the node) is eliminated instead by halving (every other keyframe first, then
+    every other of the rest, ...): the same positions in the order, the tree as deep as
+    the chain's log2. A chain's nodes touch nothing outside it but the subtrees below it
+    and the node above it, so the rest of the order and its fill are unchanged."""
+    order = np.argsort(pattern_lu.perm_c)  # as block_ordering
+    factor = pattern_lu.L.tocsc()
+    factor.sort_indices()
+    indptr, indices = factor.indptr, factor.indices
+    n = len(order)
+    width = np.diff(indptr) - 1
+    parent = np.where(width > 0, indices[np.minimum(indptr[:-1] + 1, len(indices) - 1)], -1)
+    children = np.bincount(parent[parent >= 0], minlength=n)
+    linked = width == 1
+    follows = np.zeros(n, dtype=bool)  # the node's parent continues its chain
+    follows[linked] = linked[parent[linked]] & (children[parent[linked]] == 1)
+    has_below = np.zeros(n, dtype=bool)
+    has_below[parent[follows]] = True
+    new_order = order.copy()
+    for bottom in np.flatnonzero(linked & follows & ~has_below):
+        chain = [int(bottom)]
+        while follows[chain[-1]]:
+            chain.append(int(parent[chain[-1]]))
+        if len(chain) >= CHAIN_HALVING_MIN:
+            rank = np.arange(1, len(chain) + 1)
+            halving = np.lexsort((rank, np.log2(rank & -rank)))  # ruler order: odd ranks first
+            new_order[np.sort(chain)] = order[np.asarray(chain)[halving]]
+    return new_order

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 
 from explore_rl.graph.encode import encode, nodes_to_keep
-from explore_rl.graph.exploration_graph import CURRENT, FRONTIER, POSE, build_graph, graph_from_state
+from explore_rl.graph.exploration_graph import (
+    CURRENT,
+    FRONTIER,
+    POSE,
+    build_graph,
+    factor_edges,
+    graph_from_state,
+    unique_edges,
+)
 from explore_rl.planning.actions import select_actions
 from explore_rl.planning.config import ActionSetConfig, PlanningConfig
 from explore_rl.planning.em import EMConfig, EMPlanner
@@ -191,3 +199,19 @@ def test_truncation_logs_and_drops_linked_poses_only_when_it_must(caplog):
     assert any("linked to frontiers" in r.getMessage() for r in caplog.records)
     with pytest.raises(ValueError, match="raise graph.max_nodes"):
         nodes_to_keep(graph, 2)
+
+
+def test_unique_edges_and_factor_edges_by_value():
+    """One integer key per pair gives ``np.unique(..., axis=0)`` of the sorted pairs (both
+    orders, duplicates, self-loops, empty); factor pairs keep the edges' order."""
+    rng = np.random.default_rng(2)
+    for size in (0, 1, 7, 300):
+        pairs = rng.integers(0, 40, (size, 2))
+        ordered = np.sort(pairs, axis=1)
+        ordered = ordered[ordered[:, 0] != ordered[:, 1]]
+        expected = np.unique(ordered, axis=0) if len(ordered) else ordered.reshape(0, 2)
+        got = unique_edges(pairs)
+        assert got.dtype == np.int64 and got.shape == expected.shape
+        np.testing.assert_array_equal(got, expected)
+    np.testing.assert_array_equal(factor_edges([(3, 4, "odometry"), (0, 9, "loop")]), [[3, 4], [0, 9]])
+    assert factor_edges([]).shape == (0, 2)

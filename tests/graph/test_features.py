@@ -69,3 +69,17 @@ def test_the_env_and_the_learner_take_the_extended_set():
     assert td["x"].shape == (config.graph.max_nodes, 10)
     learner = Learner(config, env.action_spec)
     assert learner.actor(td.clone())["action"].shape == ()
+
+
+def test_disc_fraction_at_and_beyond_every_border():
+    """The disc built once per radius, cut at the grid's borders: the brute-force fraction
+    for cells inside, on and outside every border (0 where the disc misses the grid)."""
+    rng = np.random.default_rng(1)
+    mask = rng.random((30, 45)) < 0.4
+    yy, xx = np.mgrid[0:30, 0:45]
+    for iy in range(-12, 43, 2):
+        for ix in range(-12, 58, 3):
+            for radius in (1, 4, 9):
+                inside = (yy - iy) ** 2 + (xx - ix) ** 2 <= radius ** 2
+                expected = float(mask[inside].mean()) if inside.any() else 0.0
+                assert disc_fraction(mask, np.array([iy, ix]), radius) == expected

@@ -8,14 +8,21 @@ import pytest
 import torch
 
 from explore_rl.config import load_config
-from explore_rl.planning.em import make_decision_context
+from explore_rl.grid import GridSpec
+from explore_rl.planning.em import Observations, make_decision_context, pose_covariances
 from explore_rl.planning.learned import (
     LearnedPolicy,
     actor_logits,
     frontier_covariances,
     graph_features,
+    landmark_covariances,
+    landmarks_near,
+    landmarks_near_reference,
+    observed_covariances,
     pairs_in_range,
     pairs_in_range_reference,
+    pose_marginals,
+    visible_pairs_of,
 )
 from explore_rl.planning.policies import PolicyConfig, make_policy
 from explore_rl.planning.virtual_map import VirtualMap
@@ -150,3 +157,59 @@ def test_pairs_in_range_equal_the_full_distance_matrix_at_the_boundary():
         np.testing.assert_array_equal(a, b)
     exact = np.linalg.norm(landmarks[expected[1]] - poses[expected[0]], axis=-1) == radius
     assert exact.sum() > 0  # the boundary case is exercised
+
+
+def test_fast_parts_equal_their_references_on_real_states(setup):
+    """Each part the fast path replaced, on every decision of an office episode: the pose
+    marginals (:func:`pose_marginals`, another elimination order: round-off) against EM's,
+    the landmarks near the frontiers, the observations' covariances in closed form and the
+    fused landmarks (the segments' line of sight by length) against the first code."""
+    config, _, learner = setup
+    planning = config.planning
+    checked = 0
+    for decision, _ in env_decisions(config, learner, steps=6):
+        state = decision.state
+        graph, vmap = state.session.graph, VirtualMap(state.session.occupancy.grid, planning.virtual_map)
+        poses = graph.poses_se2()
+        expected, _ = pose_covariances(graph, poses, "fast")
+        pose_covs = pose_marginals(graph, poses, "fast")
+        scale = np.abs(expected).max(axis=(1, 2), keepdims=True)
+        np.testing.assert_allclose(pose_covs / scale, expected / scale, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(pose_marginals(graph, poses, "reference"), pose_covariances(
+            graph, poses, "reference")[0])
+        blocked = state.session.occupancy.known_occupied
+        frontier_xy = np.array([c.frontier.waypoint_xy for c in state.candidates])
+        for radius in (0.25, 3.0):
+            np.testing.assert_array_equal(landmarks_near(vmap, frontier_xy, radius),
+                                          landmarks_near_reference(vmap, frontier_xy, radius))
+        landmarks = landmarks_near(vmap, frontier_xy, planning.virtual_map.sensor_range)
+        pose_idx, landmark_idx = visible_pairs_of(vmap, poses, blocked, landmarks)
+        reference_pairs = visible_pairs_of(vmap, poses, blocked, landmarks, reference=True)
+        np.testing.assert_array_equal(pose_idx, reference_pairs[0])
+        np.testing.assert_array_equal(landmark_idx, reference_pairs[1])
+        observed = Observations.of_pairs(vmap, poses, pose_idx, landmark_idx).landmark_covariances(pose_covs)
+        np.testing.assert_allclose(observed_covariances(vmap, poses, pose_covs, pose_idx, landmark_idx), observed,
+                                   rtol=1e-12, atol=1e-18)
+        fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
+        np.testing.assert_allclose(fused, landmark_covariances(vmap, poses, pose_covs, blocked, landmarks,
+                                                               reference=True), rtol=1e-10, atol=1e-18)
+        checked += len(pose_idx)
+    assert checked > 1000
+
+
+def test_observed_covariances_at_and_below_the_minimum_range():
+    """The closed form clamps the range as the Jacobians do: a landmark at the pose (bearing
+    +x), one inside ``min_range`` and ones far away give EM's covariances."""
+    config = load_config(FAST)
+    vmap = VirtualMap(GridSpec((0.0, 0.0), 0.1, (40, 40)), config.planning.virtual_map)
+    rng = np.random.default_rng(3)
+    landmark_idx = rng.integers(0, vmap.num_landmarks, 60)
+    poses = np.column_stack([vmap.landmark_xy[landmark_idx] + rng.normal(0, 1.0, (60, 2)), rng.uniform(-3, 3, 60)])
+    poses[:2, :2] = vmap.landmark_xy[landmark_idx[:2]]  # at the landmark
+    poses[2, :2] = vmap.landmark_xy[landmark_idx[2]] + [0.05, -0.1]  # inside min_range
+    a = rng.normal(size=(60, 3, 3))
+    pose_covs = 1e-3 * a @ np.swapaxes(a, 1, 2)
+    pose_idx = np.arange(60)
+    expected = Observations.of_pairs(vmap, poses, pose_idx, landmark_idx).landmark_covariances(pose_covs)
+    np.testing.assert_allclose(observed_covariances(vmap, poses, pose_covs, pose_idx, landmark_idx), expected,
+                               rtol=1e-12, atol=1e-18)

@@ -8,7 +8,7 @@ import scipy.sparse as sp
 
 from explore_rl.geometry import se2_between
 from explore_rl.slam.config import PoseGraphConfig
-from explore_rl.slam.marginals import SparseMarginals
+from explore_rl.slam.marginals import DepthMarginals, SparseMarginals, information_from_jacobian
 from explore_rl.slam.pose_graph import PoseGraph, key
 
 LOOP_COV = np.diag([1e-4] * 3 + [0.05**2] * 3)
@@ -94,3 +94,79 @@ def test_selected_inverse_of_a_random_sparse_system():
 def test_bad_shape_fails_in_one_line():
     with pytest.raises(ValueError, match="6N x 6N"):
         SparseMarginals(sp.identity(7, format="csr"))
+
+
+def corridor_graph(stretch: int = 70, seed: int = 1) -> PoseGraph:
+    """A loop-free stretch of ``stretch`` keyframes (a corridor driven once), then a
+    square lap twice with loops: minimum degree leaves the stretch as a deep chain of the
+    elimination tree."""
+    rng = np.random.default_rng(seed)
+    corridor = [[0.3 * k, 0.0, 0.0] for k in range(stretch)]
+    x0 = corridor[-1][0]
+    angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    lap = [[x0 + 3 * np.sin(a), 3 - 3 * np.cos(a), a] for a in angles]
+    truth = np.array(corridor + lap + lap)
+    graph = PoseGraph(PoseGraphConfig(), truth[0])
+    for k in range(1, len(truth)):
+        graph.add_keyframe(se2_between(truth[k - 1], truth[k]) + rng.normal(0, [0.01, 0.01, 0.002]), 3)
+        if k >= stretch + 24 and k % 3 == 0:
+            relative = se2_between(truth[k - 24], truth[k]) + rng.normal(0, [0.02, 0.02, 0.005])
+            graph.add_loop_closure(k - 24, k, relative, LOOP_COV, "pose_matching")
+    return graph
+
+
+def scaled(blocks: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    scale = np.abs(reference).max(axis=(1, 2), keepdims=True)
+    return blocks / scale, reference / scale
+
+
+@pytest.mark.parametrize("make", [looped_graph, corridor_graph])
+def test_depth_marginals_equal_the_sparse_marginals_and_isam(make):
+    """The learned policy's route (the information matrix from the Jacobian in blocks, the
+    chains halved, the levels by depth) against :class:`SparseMarginals` and iSAM2's own
+    queries: the same matrix exactly, the same diagonal blocks up to round-off of another
+    elimination order, the same covariance columns."""
+    graph = make()
+    information = graph.information_matrix()
+    linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
+    blocks = information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
+    assert blocks.format == "bsr" and blocks.blocksize == (6, 6)
+    assert abs(blocks - information).max() == 0.0
+    depth, sparse = DepthMarginals(blocks), SparseMarginals(information)
+    np.testing.assert_allclose(*scaled(depth.diagonal_blocks(), sparse.diagonal_blocks()), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(*scaled(depth.diagonal_blocks(), isam_marginals(graph)), rtol=0, atol=1e-8)
+    poses = [0, graph.num_poses // 2, graph.num_poses - 1]
+    columns, expected = depth.columns(poses), sparse.columns(poses)
+    np.testing.assert_allclose(columns / np.abs(expected).max(), expected / np.abs(expected).max(), rtol=0,
+                               atol=1e-9)
+
+
+def test_a_loop_free_stretch_is_halved_into_a_shallow_tree():
+    """Minimum degree eliminates the corridor keyframe after keyframe (a chain as deep as
+    the corridor is long); halving it leaves a tree a few levels deep there, and the
+    marginals of the stretch equal the column-at-a-time ones."""
+    graph = corridor_graph(stretch=120)
+    information = graph.information_matrix()
+    sparse, depth = SparseMarginals(information), DepthMarginals(information)
+    sparse_levels, depth_levels = len(sparse._structure().levels), len(depth._structure().levels)
+    assert sparse_levels > 100 and depth_levels < sparse_levels / 3
+    np.testing.assert_allclose(*scaled(depth.diagonal_blocks(), sparse.diagonal_blocks()), rtol=0, atol=1e-9)
+
+
+def test_depth_marginals_of_a_random_sparse_system():
+    """Against the dense inverse of a small random SPD block system with a long chain."""
+    rng = np.random.default_rng(5)
+    n = 40
+    edges = [(i, i + 1) for i in range(n - 1)] + [(30, 39), (32, 37), (31, 35)]
+    dense = np.zeros((6 * n, 6 * n))
+    for i, j in edges:
+        a = rng.normal(size=(12, 12))
+        idx = np.r_[6 * i: 6 * i + 6, 6 * j: 6 * j + 6]
+        dense[np.ix_(idx, idx)] += a @ a.T
+    dense += np.eye(6 * n)
+    inverse = np.linalg.inv(dense)
+    expected = np.stack([inverse[6 * i: 6 * i + 6, 6 * i: 6 * i + 6] for i in range(n)])
+    np.testing.assert_allclose(DepthMarginals(sp.csr_matrix(dense)).diagonal_blocks(), expected, rtol=1e-9,
+                               atol=1e-12)
+    with pytest.raises(ValueError, match="6N x 6N"):
+        DepthMarginals(sp.identity(7, format="csr"))
