@@ -30,11 +30,7 @@ def line_of_sight(
     seeing the landmark); with ``end_box = 0`` the samples stop at the end point.
     Vectorised, in batches of at most ``max_batch_samples`` samples.
     """
-    start_xy = np.asarray(start_xy, float).reshape(-1, 2)
-    end_xy = np.asarray(end_xy, float).reshape(-1, 2)
-    blocked = np.asarray(blocked, dtype=bool)
-    if blocked.shape != grid.shape:
-        raise ValueError(f"blocked mask {blocked.shape} != grid shape {grid.shape}")
+    start_xy, end_xy, blocked = _segment_inputs(start_xy, end_xy, blocked, grid)
     clear = np.ones(len(start_xy), dtype=bool)
     if len(start_xy) == 0:
         return clear
@@ -50,6 +46,16 @@ def line_of_sight(
         sl = slice(lo, lo + batch)
         clear[sl] = _segments_clear(start_xy[sl], unit[sl], stop[sl], padded, grid, step, n_samples)
     return clear
+
+
+def _segment_inputs(
+    start_xy: np.ndarray, end_xy: np.ndarray, blocked: np.ndarray, grid: GridSpec
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The line-of-sight inputs as ``(N, 2)`` float arrays and a boolean mask of the grid's shape."""
+    blocked = np.asarray(blocked, dtype=bool)
+    if blocked.shape != grid.shape:
+        raise ValueError(f"blocked mask {blocked.shape} != grid shape {grid.shape}")
+    return np.asarray(start_xy, float).reshape(-1, 2), np.asarray(end_xy, float).reshape(-1, 2), blocked
 
 
 def _box_entry_distance(length: np.ndarray, unit: np.ndarray, half: float) -> np.ndarray:
@@ -101,11 +107,7 @@ def line_of_sight_by_length(
     ``LENGTH_GROUPS`` groups, each sampled only as far as its longest needs (one batch
     samples every segment as far as the longest), and a segment blocked when its first
     blocked sample lies before its stop (one ``argmax`` instead of masking every sample)."""
-    start_xy = np.asarray(start_xy, float).reshape(-1, 2)
-    end_xy = np.asarray(end_xy, float).reshape(-1, 2)
-    blocked = np.asarray(blocked, dtype=bool)
-    if blocked.shape != grid.shape:
-        raise ValueError(f"blocked mask {blocked.shape} != grid shape {grid.shape}")
+    start_xy, end_xy, blocked = _segment_inputs(start_xy, end_xy, blocked, grid)
     clear = np.ones(len(start_xy), dtype=bool)
     if len(start_xy) == 0:
         return clear
