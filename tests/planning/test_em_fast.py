@@ -146,7 +146,8 @@ SKIP = 3
 
 
 def scene_decisions(scene: str) -> list[tuple]:
-    """(reference, fast) evaluations at the decisions of one random-frontier episode."""
+    """(reference, fast) evaluations at the decisions of one random-frontier episode (both
+    planners see every decision: the fast one carries observations over between them)."""
     config = load_config([f"scene={scene}", "slam=model", "seed=0", "policy=random", "explore.progress_bar=false",
                           f"explore.max_decisions={DECISIONS[scene]}"])
     em = {backend: EMPlanner(PolicyConfig(name="em"), dataclasses.replace(
@@ -155,9 +156,10 @@ def scene_decisions(scene: str) -> list[tuple]:
     explorer = Explorer(config)
     out = []
     while (state := explorer.next_state()) is not None:
+        actions = em["reference"].actions(state)
+        evaluations = tuple(em[b].evaluate(state, actions) for b in ("reference", "fast"))
         if len(explorer.result.records) >= SKIP:
-            actions = em["reference"].actions(state)
-            out.append(tuple(em[b].evaluate(state, actions) for b in ("reference", "fast")))
+            out.append(evaluations)
         explorer.act(state, int(explorer.policy.choose(state)))
     return out
 
