@@ -561,9 +561,9 @@ class EMPlanner:
         """``U'``: the virtual map after the predicted keyframes (and loops) join the graph."""
         if len(predicted) == 0:
             return context.u0
-        if (predicted.revisits or not self.em.shortcut_without_loops) and context.fast is not None:
-            covs = self.map_with_low_rank_update(context, predicted)
-        elif predicted.revisits or not self.em.shortcut_without_loops:
+        if context.fast is not None:
+            return float(self.utilities_fast(context, [predicted])[0])
+        if predicted.revisits or not self.em.shortcut_without_loops:
             covs = self.map_with_graph_copy(context, predicted)
         else:
             covs = self.map_with_chain(context, predicted)
@@ -590,30 +590,65 @@ class EMPlanner:
     def utilities_fast(self, context: DecisionContext, predicted: list[PredictedPath]) -> np.ndarray:
         """``U'`` of every candidate with the fast backend (explore_rl/planning/em_fast.py):
         loop candidates by a low-rank update of the factorised live graph and one batched
-        re-fusion of the virtual map; the others as :meth:`utility_after`."""
+        re-fusion of the virtual map, the others from the current map (as
+        :meth:`map_with_chain`); then every candidate's new keyframes fused in one pass."""
         u_after = np.full(len(predicted), context.u0)
-        visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
-        new = [Observations.of_pairs(context.vmap, p.poses, *pairs) for p, pairs in zip(predicted, visible)]
-        chain = [k for k, p in enumerate(predicted) if len(p) and not p.revisits and self.em.shortcut_without_loops]
-        for k in chain:
-            covs = propagate_chain(context.pose_covs[-1], context.poses[-1], predicted[k].poses,
-                                   step_covariances(context.graph, predicted[k].steps, self.em))
-            u_after[k] = context.vmap.utility(new[k].fuse(context.landmark_covs, covs))
-        loop = [k for k, p in enumerate(predicted) if len(p) and k not in chain]
+        moving = [k for k, p in enumerate(predicted) if len(p)]
+        if not moving:
+            return u_after
+        paths = [predicted[k] for k in moving]
+        loop = [i for i, p in enumerate(paths) if p.revisits or not self.em.shortcut_without_loops]
+        maps = np.repeat(context.landmark_covs[None], len(paths), axis=0)
+        new_covs = [None if i in loop else
+                    propagate_chain(context.pose_covs[-1], context.poses[-1], p.poses,
+                                    step_covariances(context.graph, p.steps, self.em))
+                    for i, p in enumerate(paths)]
         if loop:
-            for k, covs in zip(loop, self.loop_maps(context, [predicted[k] for k in loop], [new[k] for k in loop])):
-                u_after[k] = context.vmap.utility(covs)
+            maps[loop], loop_covs = self.loop_maps(context, [paths[i] for i in loop])
+            for i, covs in zip(loop, loop_covs):
+                new_covs[i] = covs
+        fuse_each(maps, self.new_observations(context, paths), new_covs)
+        u_after[moving] = [context.vmap.utility(covs) for covs in maps]
         return u_after
 
-    def loop_maps(self, context: DecisionContext, predicted: list[PredictedPath],
-                  new: list[Observations]) -> list[np.ndarray]:
-        """Virtual maps ``(L, 2, 2)`` after each loop candidate: every keyframe's covariance
-        by the low-rank update, the old observations re-fused for all candidates in one
-        pass (``fuse_batched``), then each candidate's new poses in order."""
+    def new_observations(self, context: DecisionContext, predicted: list[PredictedPath]) -> list[Observations]:
+        """What each candidate's predicted keyframes see: one line-of-sight batch for the
+        distinct poses of all candidates, one Jacobian batch for all pairs."""
+        visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
+        sizes = np.array([len(p) for p in predicted])
+        offsets = np.r_[0, np.cumsum(sizes)]
+        poses = np.concatenate([p.poses for p in predicted])
+        pose_idx = np.concatenate([pairs[0] + offset for pairs, offset in zip(visible, offsets)])
+        landmark_idx = np.concatenate([pairs[1] for pairs in visible])
+        everything = Observations.of_pairs(context.vmap, poses, pose_idx, landmark_idx)
+        bounds = np.cumsum([len(pairs[0]) for pairs in visible])[:-1]
+        return [Observations(pairs[0], *parts) for pairs, *parts in zip(
+            visible, np.split(everything.landmark_idx, bounds), np.split(everything.gain, bounds),
+            np.split(everything.noise, bounds))]
+
+    def loop_maps(self, context: DecisionContext,
+                  predicted: list[PredictedPath]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Virtual maps ``(C, L, 2, 2)`` of the live keyframes after each loop candidate
+        (every keyframe's covariance by the low-rank update, the observations re-fused for
+        all candidates in one pass, ``fuse_batched``) and the predicted keyframes'
+        covariances ``(P, 3, 3)`` of each."""
         ssm, loop = ssm_covariance(self.em), loop_covariance(self.em)
         revisited = {r.keyframe_index for p in predicted for r in p.revisits}
         context.fast.marginals.columns(sorted(revisited) + [len(context.poses) - 1])  # one solve for all
         covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
         maps = fused_map(context.fast, context.observations, np.stack([c.old for c in covs]),
                          context.vmap.prior_covariances())
-        return [n.fuse(m, c.new) for m, n, c in zip(maps, new, covs)]
+        return maps, [c.new for c in covs]
+
+
+def fuse_each(maps: np.ndarray, observations: list[Observations], pose_covs: list[np.ndarray]) -> None:
+    """Fuse ``observations[k]`` (pose covariances ``pose_covs[k]``) into ``maps[k]`` in place
+    for every ``k``: :meth:`Observations.fuse` of each, in one pass (a landmark of map ``k``
+    is its own sequence, fused in the same order)."""
+    num_landmarks = maps.shape[1]
+    landmark_idx = np.concatenate([k * num_landmarks + o.landmark_idx for k, o in enumerate(observations)])
+    if not len(landmark_idx):
+        return
+    observed = np.concatenate([o.landmark_covariances(c) for o, c in zip(observations, pose_covs)])
+    flat = maps.reshape(-1, 2, 2)
+    fuse_in_order(flat, landmark_idx, observed)

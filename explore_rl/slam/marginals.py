@@ -62,6 +62,9 @@ class _Level:
     pair_ids: np.ndarray  # (C, S, S) ids of Z[row_a, row_b] (lower block stored; pad: zero block)
     pair_transposed: np.ndarray  # (C, S, S) the stored block is Z[row_b, row_a]: transpose it
     diag_ids: np.ndarray  # (C,) ids of the diagonal blocks
+    scatter_order: np.ndarray  # (V,) the valid (column, row) slots sorted by row
+    scatter_rows: np.ndarray  # (U,) the distinct rows, ascending
+    scatter_starts: np.ndarray  # (U,) where each row's run starts in ``scatter_order``
 
 
 @dataclass
@@ -159,7 +162,8 @@ class SparseMarginals:
             work[lv.columns] = y
             valid = lv.rows >= 0
             update = f.blocks[lv.l_ids[valid]] @ np.repeat(y, valid.sum(axis=1), axis=0)
-            np.subtract.at(work, lv.rows[valid], update)
+            if len(update):  # a row shared by several columns sums their updates (no ufunc.at)
+                work[lv.scatter_rows] -= np.add.reduceat(update[lv.scatter_order], lv.scatter_starts, axis=0)
         work[:n] *= f.d_inv[:, :, None]  # D z = y
         for lv in f.levels:  # L^T x = z
             l_sc = np.swapaxes(f.blocks[lv.l_ids], -1, -2)  # (C, S, 6, 6): L[a, c]^T
@@ -238,4 +242,8 @@ class SparseMarginals:
         if not np.array_equal(ok, pair_valid):
             raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
         pair_ids = np.where(ok, found, zero_id)
-        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns])
+        flat_rows = rows[valid]
+        scatter_order = np.argsort(flat_rows, kind="stable")
+        scatter_rows, scatter_starts = np.unique(flat_rows[scatter_order], return_index=True)
+        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns], scatter_order, scatter_rows,
+                      scatter_starts)
