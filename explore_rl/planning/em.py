@@ -39,6 +39,7 @@ from explore_rl.grid import GridSpec
 from explore_rl.planning.actions import Action, PathPrediction, predict_path, select_actions
 from explore_rl.planning.config import EMConfig, PlanningConfig
 from explore_rl.planning.em_fast import (
+    PLANAR,
     FastContext,
     batch_observations,
     fast_world_covariances,
@@ -634,7 +635,8 @@ class EMPlanner:
         covariances ``(P, 3, 3)`` of each."""
         ssm, loop = ssm_covariance(self.em), loop_covariance(self.em)
         revisited = {r.keyframe_index for p in predicted for r in p.revisits}
-        context.fast.marginals.columns(sorted(revisited) + [len(context.poses) - 1])  # one solve for all
+        context.fast.marginals.columns(sorted(revisited) + [len(context.poses) - 1],  # one solve for all
+                                       PLANAR if context.fast.decoupled else range(6))
         covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
         maps = fused_map(context.fast, context.observations, np.stack([c.old for c in covs]),
                          context.vmap.prior_covariances())

@@ -59,6 +59,8 @@ if TYPE_CHECKING:
 # Rows/columns (yaw, x, y) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz): the
 # ones the world-frame (x, y, yaw) covariance reads.
 ROT_Z, TRANS_X, TRANS_Y = 2, 3, 4
+PLANAR = (ROT_Z, TRANS_X, TRANS_Y)
+OFF_PLANE = (0, 1, 5)  # roll, pitch, z
 
 
 # ---------------------------------------------------------------------- SE(3) of planar poses
@@ -112,18 +114,34 @@ class FastContext:
 
     marginals: SparseMarginals
     tangent_covs: np.ndarray  # (N, 6, 6) every keyframe's marginal (Pose3 tangent, body frame)
+    decoupled: bool = False  # no factor couples the planar dofs (yaw, x, y) with roll, pitch, z
     rounds: FuseRounds | None = None  # the current observations in fusion rounds (set by the context)
 
     @classmethod
     def of(cls, graph: PoseGraph) -> FastContext:
-        marginals = SparseMarginals(graph.information_matrix())
-        return cls(marginals, marginals.diagonal_blocks())
+        information = graph.information_matrix()
+        marginals = SparseMarginals(information)
+        return cls(marginals, marginals.diagonal_blocks(), planar_decoupled(information))
 
     def rounds_of(self, landmark_idx: np.ndarray) -> FuseRounds:
         """The fusion rounds of the current observations (built once per decision)."""
         if self.rounds is None:
             self.rounds = FuseRounds.of(landmark_idx)
         return self.rounds
+
+
+def planar_decoupled(information) -> bool:
+    """Whether the information matrix (Pose3 tangent order per pose) has no entry joining
+    a planar dof of one pose to an off-plane dof of any pose (planar poses, planar factors
+    with diagonal noise): then planar marginals and updates need only planar columns."""
+    coo = information.tocoo()
+    planar = np.isin(coo.row % BLOCK, PLANAR)
+    return not np.any((planar != np.isin(coo.col % BLOCK, PLANAR)) & (coo.data != 0))
+
+
+def _block_diagonal(matrices: np.ndarray) -> bool:
+    """Whether 6x6 tangent matrices ``(..., 6, 6)`` join no planar dof to an off-plane one."""
+    return not np.any(matrices[..., list(PLANAR), :][..., list(OFF_PLANE)])
 
 
 def fast_world_covariances(graph: PoseGraph, poses: np.ndarray) -> tuple[np.ndarray, FastContext]:
@@ -185,39 +203,48 @@ def loop_update(context: DecisionContext, fast: FastContext, predicted: Predicte
     new_tangent = adj_new_inv @ world @ np.swapaxes(adj_new_inv, 1, 2)
     old_tangent = fast.tangent_covs
     if m:
+        # planar poses and factors: the planar rows of every update involve only planar dofs
+        dims = list(PLANAR) if fast.decoupled and _block_diagonal(steps) and _block_diagonal(loop_cov) \
+            and _block_diagonal(sigma_last) else list(range(BLOCK))
         old_tangent, new_tangent = _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv,
-                                             adj_last, loop_cov, old_tangent, new_tangent)
+                                             adj_last, loop_cov, old_tangent, new_tangent, dims)
     return CandidateCovariances(world_from_tangent(old_tangent, context.poses),
                                 world_from_tangent(new_tangent, poses_new))
 
 
 def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_last, loop_cov,
-              old_tangent, new_tangent) -> tuple[np.ndarray, np.ndarray]:
+              old_tangent, new_tangent, dims: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """Condition the chain's joint on the ``m`` loops ``eta_k - eta_r ~ N(0, R)``; only the
-    planar rows/columns (yaw, x, y) of each updated marginal are needed, the rest are kept."""
-    n, m = len(context.poses), len(revisited)
-    planar = [ROT_Z, TRANS_X, TRANS_Y]
-    adj_r = planar_adjoint(context.poses[revisited])  # (m, 6, 6)
-    columns = fast.marginals.columns(np.r_[revisited, n - 1]).reshape(n, BLOCK, m + 1, BLOCK)
-    # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, 6)
+    planar rows/columns (yaw, x, y) of each updated marginal are needed, the rest are kept.
+    ``dims``: the tangent components of the loops that enter (all 6, or the planar 3 when
+    nothing couples them to roll, pitch and z: the same planar result at a quarter of the
+    cost, a rank-3m update from 3 covariance columns per revisited keyframe)."""
+    n, m, d = len(context.poses), len(revisited), len(dims)
+    planar = list(PLANAR)
+    sub = np.ix_(dims, dims)
+    adj_r = planar_adjoint(context.poses[revisited])[(slice(None),) + sub]  # (m, d, d)
+    adj_last, world = adj_last[sub], world[(slice(None),) + sub]
+    adj_new, adj_new_inv, loop_cov = adj_new[(slice(None),) + sub], adj_new_inv[(slice(None), planar)], loop_cov[sub]
+    columns = fast.marginals.columns(np.r_[revisited, n - 1], dims).reshape(n, BLOCK, m + 1, d)
+    # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, d)
     rows = columns[:, planar]
     u_old = (rows[:, :, m] @ adj_last.T)[:, :, None] - (rows[:, :, :m, None, :] @ np.swapaxes(adj_r, 1, 2))[..., 0, :]
     # the loops' own covariance S0 = Cov(y) and R (world-frame loop noise at k_j)
-    at_r = columns[revisited].transpose(0, 2, 1, 3)  # (m, m + 1, 6, 6): Cov(xi_r, xi_j)
-    eta_r_r = adj_r[:, None] @ at_r[:, :m] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, 6, 6)
-    eta_r_k = adj_r @ at_r[:, m] @ adj_last.T  # (m, 6, 6): Cov(eta_r, eta_k) for any new k
-    eta_k_k = world[np.minimum(at[:, None], at[None, :])]  # (m, m, 6, 6)
+    at_r = columns[revisited][:, dims].transpose(0, 2, 1, 3)  # (m, m + 1, d, d): Cov(xi_r, xi_j)
+    eta_r_r = adj_r[:, None] @ at_r[:, :m] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, d, d)
+    eta_r_k = adj_r @ at_r[:, m] @ adj_last.T  # (m, d, d): Cov(eta_r, eta_k) for any new k
+    eta_k_k = world[np.minimum(at[:, None], at[None, :])]  # (m, m, d, d)
     s0 = eta_k_k - np.swapaxes(eta_r_k, 1, 2)[None] - eta_r_k[:, None] + eta_r_r
     diag = np.arange(m)
     s0[diag, diag] += adj_new[at] @ loop_cov @ np.swapaxes(adj_new[at], 1, 2)
-    gain = np.linalg.inv(s0.transpose(0, 2, 1, 3).reshape(6 * m, 6 * m))
+    gain = np.linalg.inv(s0.transpose(0, 2, 1, 3).reshape(d * m, d * m))
     gain = 0.5 * (gain + gain.T)
-    # new keyframes: Cov(xi_k, y_j) = Ad(T_k^-1) [W_min(k, k_j) - Cov(eta_r_j, eta_k)^T]
+    # new keyframes: Cov(xi_k, y_j) = Ad(T_k^-1) [W_min(k, k_j) - Cov(eta_r_j, eta_k)^T], planar rows
     k = np.arange(len(world))
-    u_new = adj_new_inv[:, None] @ (world[np.minimum(k[:, None], at[None, :])] - np.swapaxes(eta_r_k, 1, 2)[None])
-    old_tangent = _downdate(old_tangent, u_old.reshape(n, 3, m * BLOCK), gain, planar)
-    new_tangent = _downdate(new_tangent, u_new[:, :, planar, :].transpose(0, 2, 1, 3).reshape(len(world), 3, -1),
-                            gain, planar)
+    inv_rows = adj_new_inv[..., dims] if d < BLOCK else adj_new_inv
+    u_new = inv_rows[:, None] @ (world[np.minimum(k[:, None], at[None, :])] - np.swapaxes(eta_r_k, 1, 2)[None])
+    old_tangent = _downdate(old_tangent, u_old.reshape(n, 3, m * d), gain, planar)
+    new_tangent = _downdate(new_tangent, u_new.transpose(0, 2, 1, 3).reshape(len(world), 3, -1), gain, planar)
     return old_tangent, new_tangent
 
 

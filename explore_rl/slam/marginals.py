@@ -62,9 +62,8 @@ class _Level:
     pair_ids: np.ndarray  # (C, S, S) ids of Z[row_a, row_b] (lower block stored; pad: zero block)
     pair_transposed: np.ndarray  # (C, S, S) the stored block is Z[row_b, row_a]: transpose it
     diag_ids: np.ndarray  # (C,) ids of the diagonal blocks
-    scatter_order: np.ndarray  # (V,) the valid (column, row) slots sorted by row
-    scatter_rows: np.ndarray  # (U,) the distinct rows, ascending
-    scatter_starts: np.ndarray  # (U,) where each row's run starts in ``scatter_order``
+    scatter_rows: np.ndarray  # (U,) the distinct valid rows, ascending
+    scatter: sp.csr_matrix  # (U, V) sums the V valid (column, row) slots into their rows
 
 
 @dataclass
@@ -99,26 +98,29 @@ class SparseMarginals:
         identity = np.arange(size)
         if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
             raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
-        self._columns: dict[int, np.ndarray] = {}
+        self._columns: dict[tuple, np.ndarray] = {}  # (pose, components) -> (6N, c)
         self._diagonal: np.ndarray | None = None
         self._factor: _Factor | None = None
 
     # ------------------------------------------------------------- columns
 
-    def columns(self, poses) -> np.ndarray:
-        """``(6N, 6k)``: the covariance columns of ``poses`` (pose order rows), cached."""
+    def columns(self, poses, components=tuple(range(BLOCK))) -> np.ndarray:
+        """``(6N, c k)``: the covariance columns of the tangent ``components`` (``c`` of the
+        6; default all) of each of ``poses`` (pose order rows), cached."""
+        components = tuple(int(c) for c in components)
+        width = len(components)
         poses = [int(p) for p in np.atleast_1d(poses)]
-        missing = [p for p in dict.fromkeys(poses) if p not in self._columns]
+        missing = [p for p in dict.fromkeys(poses) if (p, components) not in self._columns]
         if missing:
-            rhs = np.zeros((self.num_blocks, BLOCK, BLOCK * len(missing)))
+            rhs = np.zeros((self.num_blocks, BLOCK, width * len(missing)))
             for k, pose in enumerate(missing):
-                rhs[self.position[pose], :, BLOCK * k: BLOCK * (k + 1)] = np.eye(BLOCK)
+                rhs[self.position[pose], list(components), width * k + np.arange(width)] = 1.0
             solved = self.solve(rhs)[self.position].reshape(BLOCK * self.num_blocks, -1)
             for k, pose in enumerate(missing):
-                self._columns[pose] = solved[:, BLOCK * k: BLOCK * (k + 1)]
+                self._columns[(pose, components)] = solved[:, width * k: width * (k + 1)]
         if not poses:
             return np.zeros((BLOCK * self.num_blocks, 0))
-        return np.hstack([self._columns[p] for p in poses])
+        return np.hstack([self._columns[(p, components)] for p in poses])
 
     def cross_blocks(self, poses) -> np.ndarray:
         """``(N, k, 6, 6)``: block ``[i, j]`` is ``Cov(x_i, x_{poses[j]})``."""
@@ -162,8 +164,9 @@ class SparseMarginals:
             work[lv.columns] = y
             valid = lv.rows >= 0
             update = f.blocks[lv.l_ids[valid]] @ np.repeat(y, valid.sum(axis=1), axis=0)
-            if len(update):  # a row shared by several columns sums their updates (no ufunc.at)
-                work[lv.scatter_rows] -= np.add.reduceat(update[lv.scatter_order], lv.scatter_starts, axis=0)
+            if len(update):  # a row shared by several columns sums their updates (a sparse sum, no ufunc.at)
+                work[lv.scatter_rows] -= (lv.scatter @ update.reshape(len(update), -1)).reshape(
+                    len(lv.scatter_rows), *work.shape[1:])
         work[:n] *= f.d_inv[:, :, None]  # D z = y
         for lv in f.levels:  # L^T x = z
             l_sc = np.swapaxes(f.blocks[lv.l_ids], -1, -2)  # (C, S, 6, 6): L[a, c]^T
@@ -245,5 +248,6 @@ class SparseMarginals:
         flat_rows = rows[valid]
         scatter_order = np.argsort(flat_rows, kind="stable")
         scatter_rows, scatter_starts = np.unique(flat_rows[scatter_order], return_index=True)
-        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns], scatter_order, scatter_rows,
-                      scatter_starts)
+        scatter = sp.csr_matrix((np.ones(len(flat_rows)), scatter_order, np.r_[scatter_starts, len(flat_rows)]),
+                                shape=(len(scatter_rows), len(flat_rows)))
+        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns], scatter_rows, scatter)

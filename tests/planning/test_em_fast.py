@@ -112,6 +112,38 @@ def test_fast_equals_reference_at_a_shared_linearisation_point(scale, shortcut):
     assert fast.chosen == reference.chosen
 
 
+def test_planar_only_update_equals_the_full_update(monkeypatch):
+    """Planar graphs (no factor joins yaw, x, y to roll, pitch, z): the loops' planar
+    components alone give the same utilities as all six."""
+    import explore_rl.planning.em_fast as em_fast
+
+    state = tour_state(3.0)
+    planar = planner(backend="fast").evaluate(state)
+    assert em_fast.FastContext.of(state.session.graph).decoupled
+    of = em_fast.FastContext.of.__func__
+
+    def coupled(cls, graph):
+        context = of(cls, graph)
+        context.decoupled = False
+        return context
+
+    monkeypatch.setattr(em_fast.FastContext, "of", classmethod(coupled))
+    full = planner(backend="fast").evaluate(state)
+    assert planar.loops.max() >= 1
+    np.testing.assert_allclose(planar.u_after, full.u_after, rtol=1e-12, atol=1e-9)
+
+
+def test_planar_decoupled_sees_a_coupling_entry():
+    import scipy.sparse as sp
+
+    from explore_rl.planning.em_fast import planar_decoupled
+
+    information = np.eye(12)
+    assert planar_decoupled(sp.csr_matrix(information))
+    information[2, 6] = information[6, 2] = 0.1  # yaw of pose 0 with roll of pose 1
+    assert not planar_decoupled(sp.csr_matrix(information))
+
+
 def test_fast_context_has_the_reference_marginals():
     state = tour_state(3.0)
     reference = planner().decision_context(state)
