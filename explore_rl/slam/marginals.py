@@ -29,11 +29,16 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 BLOCK = 6  # Pose3 tangent dimension
+# Block updates of one elimination-tree level from which the solve scatters by a sparse
+# matrix product (~0.15 ms to build, then ~10x faster than ``np.subtract.at`` on big levels).
+SPARSE_SCATTER = 64
 
 
-def _splu(matrix: sp.csc_matrix, ordering: str) -> spla.SuperLU:
-    """LU without pivoting (symmetric positive definite input) in ``ordering``."""
-    return spla.splu(matrix, permc_spec=ordering, diag_pivot_thresh=0.0,
+def _splu(matrix: sp.csc_matrix, ordering: str, relax: int | None = None) -> spla.SuperLU:
+    """LU without pivoting (symmetric positive definite input) in ``ordering``; ``relax``:
+    SuperLU's supernode relaxation (``BLOCK`` for the block system: its columns come in
+    6-column blocks; ~40 % faster than the default on office graphs)."""
+    return spla.splu(matrix, permc_spec=ordering, diag_pivot_thresh=0.0, relax=relax,
                      options={"SymmetricMode": True})
 
 
@@ -62,8 +67,20 @@ class _Level:
     pair_ids: np.ndarray  # (C, S, S) ids of Z[row_a, row_b] (lower block stored; pad: zero block)
     pair_transposed: np.ndarray  # (C, S, S) the stored block is Z[row_b, row_a]: transpose it
     diag_ids: np.ndarray  # (C,) ids of the diagonal blocks
-    scatter_rows: np.ndarray  # (U,) the distinct valid rows, ascending
-    scatter: sp.csr_matrix  # (U, V) sums the V valid (column, row) slots into their rows
+    scatter: sp.csr_matrix | None = None  # (U, V) sums the V valid slots into their U rows (built on use)
+    scatter_rows: np.ndarray | None = None  # (U,) those rows, ascending
+
+
+    def scatter_matrix(self) -> tuple[sp.csr_matrix, np.ndarray]:
+        """The ``(U, V)`` 0/1 matrix summing this level's ``V`` valid block updates into
+        their ``U`` distinct rows, and those rows (built once)."""
+        if self.scatter is None:
+            flat = self.rows[self.rows >= 0]
+            order = np.argsort(flat, kind="stable")
+            self.scatter_rows, starts = np.unique(flat[order], return_index=True)
+            self.scatter = sp.csr_matrix((np.ones(len(flat)), order, np.r_[starts, len(flat)]),
+                                         shape=(len(self.scatter_rows), len(flat)))
+        return self.scatter, self.scatter_rows
 
 
 @dataclass
@@ -94,7 +111,7 @@ class SparseMarginals:
         self.position = np.argsort(self.order)  # pose -> factor position
         scalar = scalar_indices(self.order)
         permuted = information[scalar][:, scalar].tobsr(blocksize=(BLOCK, BLOCK)).tocsc()
-        self.lu = _splu(permuted, "NATURAL")
+        self.lu = _splu(permuted, "NATURAL", relax=BLOCK)
         identity = np.arange(size)
         if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
             raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
@@ -164,9 +181,11 @@ class SparseMarginals:
             work[lv.columns] = y
             valid = lv.rows >= 0
             update = f.blocks[lv.l_ids[valid]] @ np.repeat(y, valid.sum(axis=1), axis=0)
-            if len(update):  # a row shared by several columns sums their updates (a sparse sum, no ufunc.at)
-                work[lv.scatter_rows] -= (lv.scatter @ update.reshape(len(update), -1)).reshape(
-                    len(lv.scatter_rows), *work.shape[1:])
+            if len(update) >= SPARSE_SCATTER:  # rows shared by several columns: a sparse sum beats ufunc.at
+                scatter, rows = lv.scatter_matrix()
+                work[rows] -= (scatter @ update.reshape(len(update), -1)).reshape(len(rows), *work.shape[1:])
+            else:
+                np.subtract.at(work, lv.rows[valid], update)
         work[:n] *= f.d_inv[:, :, None]  # D z = y
         for lv in f.levels:  # L^T x = z
             l_sc = np.swapaxes(f.blocks[lv.l_ids], -1, -2)  # (C, S, 6, 6): L[a, c]^T
@@ -245,9 +264,4 @@ class SparseMarginals:
         if not np.array_equal(ok, pair_valid):
             raise RuntimeError("block pattern of the factor is not closed (selected inversion)")
         pair_ids = np.where(ok, found, zero_id)
-        flat_rows = rows[valid]
-        scatter_order = np.argsort(flat_rows, kind="stable")
-        scatter_rows, scatter_starts = np.unique(flat_rows[scatter_order], return_index=True)
-        scatter = sp.csr_matrix((np.ones(len(flat_rows)), scatter_order, np.r_[scatter_starts, len(flat_rows)]),
-                                shape=(len(scatter_rows), len(flat_rows)))
-        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns], scatter_rows, scatter)
+        return _Level(columns, rows, ids, pair_ids, a < b, indptr[columns])
