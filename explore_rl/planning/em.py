@@ -635,8 +635,8 @@ class EMPlanner:
         covariances ``(P, 3, 3)`` of each."""
         ssm, loop = ssm_covariance(self.em), loop_covariance(self.em)
         revisited = {r.keyframe_index for p in predicted for r in p.revisits}
-        context.fast.marginals.columns(sorted(revisited) + [len(context.poses) - 1],  # one solve for all
-                                       PLANAR if context.fast.decoupled else range(6))
+        dims = list(PLANAR) if context.fast.decoupled else list(range(6))
+        context.fast.cross(sorted(revisited) + [len(context.poses) - 1], dims, dims)  # one solve for all
         covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
         maps = fused_map(context.fast, context.observations, np.stack([c.old for c in covs]),
                          context.vmap.prior_covariances())

@@ -46,10 +46,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 
 from explore_rl.planning.config import EMConfig
 from explore_rl.planning.virtual_map import ci_weight
-from explore_rl.slam.marginals import BLOCK, SparseMarginals
+from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 
 if TYPE_CHECKING:
@@ -110,18 +111,54 @@ def world_from_tangent(covs: np.ndarray, poses: np.ndarray) -> np.ndarray:
 
 @dataclass
 class FastContext:
-    """What the fast backend shares between the candidates of one decision."""
+    """What the fast backend shares between the candidates of one decision.
 
-    marginals: SparseMarginals
+    When no factor couples the planar dofs (yaw, x, y) with roll, pitch and z (planar
+    poses, planar factors with diagonal noise: ``planar_decoupled``), only the planar part
+    of the system is factorised (3x3 blocks: about half the cost); the off-plane blocks of
+    ``tangent_covs`` are then zero, and nothing reads them (the planar rows of every
+    product with a planar pose's adjoint involve only planar dofs).
+    """
+
+    marginals: SparseMarginals  # the 6-dof system, or its planar part (``decoupled``)
     tangent_covs: np.ndarray  # (N, 6, 6) every keyframe's marginal (Pose3 tangent, body frame)
-    decoupled: bool = False  # no factor couples the planar dofs (yaw, x, y) with roll, pitch, z
+    decoupled: bool  # ``marginals`` holds the planar system only
+    information: sp.spmatrix  # the 6-dof system, for :meth:`full`
     rounds: FuseRounds | None = None  # the current observations in fusion rounds (set by the context)
+    _full: FastContext | None = None
 
     @classmethod
-    def of(cls, graph: PoseGraph) -> FastContext:
+    def of(cls, graph: PoseGraph, planar: bool = True) -> FastContext:
+        """Factorise the live graph (its planar part when ``planar`` and decoupled)."""
         information = graph.information_matrix()
+        if planar and planar_decoupled(information):
+            scalar = scalar_indices(np.arange(information.shape[0] // BLOCK)).reshape(-1, BLOCK)[:, list(PLANAR)]
+            marginals = SparseMarginals(information[scalar.ravel()][:, scalar.ravel()], block=len(PLANAR))
+            covs = np.zeros((marginals.num_blocks, BLOCK, BLOCK))
+            covs[:, 2:5, 2:5] = marginals.diagonal_blocks()  # PLANAR = (2, 3, 4)
+            return cls(marginals, covs, True, information)
         marginals = SparseMarginals(information)
-        return cls(marginals, marginals.diagonal_blocks(), planar_decoupled(information))
+        return cls(marginals, marginals.diagonal_blocks(), False, information)
+
+    def full(self) -> FastContext:
+        """The 6-dof factorisation (built on demand if a planar context meets an update
+        that couples the planar dofs with the others)."""
+        if not self.decoupled:
+            return self
+        if self._full is None:
+            marginals = SparseMarginals(self.information)
+            self._full = FastContext(marginals, marginals.diagonal_blocks(), False, self.information)
+        return self._full
+
+    def cross(self, poses, dims: list[int], rows: list[int]) -> np.ndarray:
+        """``(N, len(rows), k, len(dims))``: ``Cov(xi_a[rows], xi_p[dims])`` for every
+        keyframe ``a`` and each of the ``k`` keyframes ``poses`` (tangent components)."""
+        n, k = self.marginals.num_blocks, len(np.atleast_1d(poses))
+        if self.decoupled:
+            local = [PLANAR.index(d) for d in dims]
+            columns = self.marginals.columns(poses, local).reshape(n, len(PLANAR), k, len(dims))
+            return columns[:, [PLANAR.index(r) for r in rows]]
+        return self.marginals.columns(poses, dims).reshape(n, BLOCK, k, len(dims))[:, rows]
 
     def rounds_of(self, landmark_idx: np.ndarray) -> FuseRounds:
         """The fusion rounds of the current observations (built once per decision)."""
@@ -194,18 +231,19 @@ def loop_update(context: DecisionContext, fast: FastContext, predicted: Predicte
     adj_new = planar_adjoint(poses_new)  # (P, 6, 6)
     adj_new_inv = planar_adjoint_inverse(poses_new)
     adj_last = planar_adjoint(context.poses[last])[0]
+    steps = step_tangent_covariances(graph, predicted.steps, ssm_cov)
+    if fast.decoupled and not (_block_diagonal(steps) and _block_diagonal(loop_cov)):
+        fast = fast.full()  # predicted factors that couple the planar dofs with the others
     sigma_last = fast.tangent_covs[last]
 
     # 1. the chain: world-frame accumulated covariance W_k = Cov(eta_k)
-    steps = step_tangent_covariances(graph, predicted.steps, ssm_cov)
     world_steps = adj_new @ steps @ np.swapaxes(adj_new, 1, 2)
     world = adj_last @ sigma_last @ adj_last.T + np.cumsum(world_steps, axis=0)  # (P, 6, 6)
     new_tangent = adj_new_inv @ world @ np.swapaxes(adj_new_inv, 1, 2)
     old_tangent = fast.tangent_covs
     if m:
         # planar poses and factors: the planar rows of every update involve only planar dofs
-        dims = list(PLANAR) if fast.decoupled and _block_diagonal(steps) and _block_diagonal(loop_cov) \
-            and _block_diagonal(sigma_last) else list(range(BLOCK))
+        dims = list(PLANAR) if fast.decoupled else list(range(BLOCK))
         old_tangent, new_tangent = _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv,
                                              adj_last, loop_cov, old_tangent, new_tangent, dims)
     return CandidateCovariances(world_from_tangent(old_tangent, context.poses),
@@ -225,12 +263,13 @@ def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_las
     adj_r = planar_adjoint(context.poses[revisited])[(slice(None),) + sub]  # (m, d, d)
     adj_last, world = adj_last[sub], world[(slice(None),) + sub]
     adj_new, adj_new_inv, loop_cov = adj_new[(slice(None),) + sub], adj_new_inv[(slice(None), planar)], loop_cov[sub]
-    columns = fast.marginals.columns(np.r_[revisited, n - 1], dims).reshape(n, BLOCK, m + 1, d)
+    columns = fast.cross(np.r_[revisited, n - 1], dims, planar + [c for c in dims if c not in planar])
     # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, d)
-    rows = columns[:, planar]
+    rows = columns[:, :3]
     u_old = (rows[:, :, m] @ adj_last.T)[:, :, None] - (rows[:, :, :m, None, :] @ np.swapaxes(adj_r, 1, 2))[..., 0, :]
     # the loops' own covariance S0 = Cov(y) and R (world-frame loop noise at k_j)
-    at_r = columns[revisited][:, dims].transpose(0, 2, 1, 3)  # (m, m + 1, d, d): Cov(xi_r, xi_j)
+    by_dims = [(planar + [c for c in dims if c not in planar]).index(c) for c in dims]
+    at_r = columns[revisited][:, by_dims].transpose(0, 2, 1, 3)  # (m, m + 1, d, d): Cov(xi_r, xi_j)
     eta_r_r = adj_r[:, None] @ at_r[:, :m] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, d, d)
     eta_r_k = adj_r @ at_r[:, m] @ adj_last.T  # (m, d, d): Cov(eta_r, eta_k) for any new k
     eta_k_k = world[np.minimum(at[:, None], at[None, :])]  # (m, m, d, d)

@@ -121,16 +121,34 @@ def test_planar_only_update_equals_the_full_update(monkeypatch):
     planar = planner(backend="fast").evaluate(state)
     assert em_fast.FastContext.of(state.session.graph).decoupled
     of = em_fast.FastContext.of.__func__
-
-    def coupled(cls, graph):
-        context = of(cls, graph)
-        context.decoupled = False
-        return context
-
-    monkeypatch.setattr(em_fast.FastContext, "of", classmethod(coupled))
+    monkeypatch.setattr(em_fast.FastContext, "of", classmethod(lambda cls, graph: of(cls, graph, planar=False)))
     full = planner(backend="fast").evaluate(state)
     assert planar.loops.max() >= 1
     np.testing.assert_allclose(planar.u_after, full.u_after, rtol=1e-12, atol=1e-9)
+
+
+def test_a_coupling_update_on_a_planar_context_uses_the_full_factorisation():
+    """A predicted loop whose noise couples yaw with roll: the planar factorisation is not
+    enough; the update switches to the 6-dof one and matches a 6-dof context."""
+    from explore_rl.planning.em import loop_covariance
+    from explore_rl.planning.em_fast import FastContext, loop_update
+
+    state = tour_state(3.0)
+    em = planner(backend="fast")
+    context = em.decision_context(state)
+    predicted = [em.predicted_keyframes(context, a.prediction) for a in em.actions(state)]
+    looping = next(p for p in predicted if p.revisits)
+    coupled = loop_covariance(em.em)
+    coupled[2, 0] = coupled[0, 2] = 0.3 * np.sqrt(coupled[0, 0] * coupled[2, 2])
+    planar = FastContext.of(state.session.graph)
+    full = FastContext.of(state.session.graph, planar=False)
+    assert planar.decoupled and not full.decoupled
+    ssm = ssm_covariance(em.em)
+    got = loop_update(context, planar, looping, state.session.graph, em.em, ssm, coupled)
+    expected = loop_update(context, full, looping, state.session.graph, em.em, ssm, coupled)
+    assert planar._full is not None  # the switch happened
+    np.testing.assert_allclose(got.old, expected.old, rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(got.new, expected.new, rtol=1e-10, atol=1e-14)
 
 
 def test_planar_decoupled_sees_a_coupling_entry():
