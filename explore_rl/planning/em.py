@@ -17,6 +17,8 @@ The choice is ``argmax U0 - U' - alpha * path_length``. Everything that does not
 on the candidate -- old marginals, which landmarks each old pose sees and the Jacobians
 of those observations (:class:`Observations`), ``U0`` -- is computed once per decision
 (:class:`DecisionContext`); a loop candidate then only re-reads marginals and re-fuses.
+The fast backend also carries each keyframe's observations over to the next decision
+where its estimate and the walls near it did not change (:class:`ObservationCache`, exact).
 
 Two backends (``planning.em.backend``): ``reference`` is the forward simulation above (an
 iSAM2 copy per loop candidate, one ``marginalCovariance`` query per pose); ``fast`` (the

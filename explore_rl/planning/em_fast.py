@@ -4,10 +4,15 @@ forward simulation (explore_rl/planning/em.py) without a graph copy per candidat
 Per decision, once (:class:`FastContext`):
 
 * the live graph's information matrix at iSAM2's linearisation point, factorised once
-  (:class:`~explore_rl.slam.marginals.SparseMarginals`): every keyframe's marginal by
-  selected inversion (the decision context's and the graph features' covariances) and,
-  on demand, the covariance columns of the few keyframes candidates revisit;
-* which virtual-map observations each landmark has (to re-fuse only what changes).
+  (:class:`~explore_rl.slam.marginals.SparseMarginals`; only its planar part, yaw/x/y in
+  3x3 blocks, when no factor couples it to roll/pitch/z, as on planar robots): every
+  keyframe's marginal by selected inversion (the decision context's and the graph
+  features' covariances) and, on demand, the covariance columns of the few keyframes
+  candidates revisit;
+* which virtual-map observations each landmark has, in fusion rounds (:class:`FuseRounds`),
+  shared by U0 and every candidate's re-fusion; the keyframes' observations themselves are
+  carried over from the previous decision where nothing they depend on changed
+  (:class:`~explore_rl.planning.em.ObservationCache`).
 
 Per candidate with a predicted loop (:func:`loop_update`), instead of copying iSAM2:
 
@@ -16,7 +21,8 @@ Per candidate with a predicted loop (:func:`loop_update`), instead of copying iS
    cross-covariances with every old keyframe (through the last keyframe's column);
 2. each predicted loop ``(r, k)`` is one more 6-dof factor: all loops together are a
    rank-``6m`` update of that joint (Woodbury), which needs only the covariance columns
-   of the revisited keyframes ``r`` and of the last keyframe;
+   of the revisited keyframes ``r`` and of the last keyframe (rank ``3m`` and three
+   columns each when planar and off-plane dofs are decoupled);
 3. the virtual map is fused again from the prior, in the same order and with the same
    covariance-intersection arithmetic as the reference, but for all loop candidates in
    one pass of rounds (:func:`fuse_batched`): a round costs ~20 numpy calls whatever its
