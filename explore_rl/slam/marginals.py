@@ -103,6 +103,8 @@ class SparseMarginals:
     pose order). Factorised once at construction.
     """
 
+    block = BLOCK  # scalars per variable (set per instance at construction)
+
     def __init__(self, information: sp.spmatrix, block: int = BLOCK) -> None:
         information = sp.csr_matrix(information)
         size = information.shape[0]
