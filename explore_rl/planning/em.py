@@ -17,6 +17,8 @@ The choice is ``argmax U0 - U' - alpha * path_length``. Everything that does not
 on the candidate -- old marginals, which landmarks each old pose sees and the Jacobians
 of those observations (:class:`Observations`), ``U0`` -- is computed once per decision
 (:class:`DecisionContext`); a loop candidate then only re-reads marginals and re-fuses.
+The fast backend also carries each keyframe's observations over to the next decision
+where its estimate and the walls near it did not change (:class:`ObservationCache`, exact).
 
 Two backends (``planning.em.backend``): ``reference`` is the forward simulation above (an
 iSAM2 copy per loop candidate, one ``marginalCovariance`` query per pose); ``fast`` (the
@@ -39,6 +41,7 @@ from explore_rl.grid import GridSpec
 from explore_rl.planning.actions import Action, PathPrediction, predict_path, select_actions
 from explore_rl.planning.config import EMConfig, PlanningConfig
 from explore_rl.planning.em_fast import (
+    PLANAR,
     FastContext,
     batch_observations,
     fast_world_covariances,
@@ -258,6 +261,149 @@ class Observations:
         return covs
 
 
+class ObservationCache:
+    """Each keyframe's virtual-map observations carried from one decision to the next
+    (``planning.em.backend=fast``; the reference recomputes them every decision), exactly.
+
+    A keyframe whose (x, y) estimate is bitwise the one of the previous decision (no loop
+    closure or relinearisation moved it: about half of them on office episodes) keeps its
+    Jacobians and the visibility of every landmark whose segment passes no known-occupied
+    cell that changed since; only the segments near a changed cell are tested again.
+    Keyframes that moved are tested afresh. The result is :meth:`Observations.of`: what
+    the line of sight and the Jacobians read did not change. (Keeping the visibility of
+    keyframes that moved by a centimetre was tried: one flipped pair moves U0 by up to
+    ~5 log-det units, beyond the documented tolerance.)
+    """
+
+    def __init__(self) -> None:
+        self.grid: GridSpec | None = None
+        self.blocked: np.ndarray | None = None
+        self.xy = np.zeros((0, 2))  # (x, y) of each keyframe at the previous decision
+        self.observations: Observations | None = None
+        self.starts = np.zeros(1, dtype=np.int64)  # rows of keyframe i: starts[i]:starts[i + 1]
+
+    def observations_of(self, vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray) -> Observations:
+        """:meth:`Observations.of` ``(vmap, poses, blocked)``, reusing what still holds."""
+        keep = self.unmoved(vmap, poses, blocked)
+        fresh = np.flatnonzero(~keep)
+        pose_idx, landmark_idx = vmap.visible_pairs(poses[fresh], blocked)
+        fresh_pairs = (fresh[pose_idx], landmark_idx)
+        kept_pairs = self.kept_pairs(vmap, np.flatnonzero(keep), blocked)
+        pose_idx = np.concatenate([fresh_pairs[0], kept_pairs[0]])
+        landmark_idx = np.concatenate([fresh_pairs[1], kept_pairs[1]])
+        order = np.argsort(pose_idx, kind="stable")  # pose order; window order within a pose
+        observations = self.jacobians(vmap, poses, pose_idx[order], landmark_idx[order], keep)
+        self.grid, self.blocked, self.xy = vmap.grid, blocked.copy(), poses[:, :2].copy()
+        self.observations = observations
+        self.starts = np.searchsorted(observations.pose_idx, np.arange(len(poses) + 1)).astype(np.int64)
+        return observations
+
+    def unmoved(self, vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+        """``(N,)``: the keyframes whose (x, y) is bitwise the previous decision's."""
+        keep = np.zeros(len(poses), dtype=bool)
+        if self.observations is None or self.grid != vmap.grid or self.blocked.shape != blocked.shape:
+            return keep
+        known = min(len(poses), len(self.xy))
+        keep[:known] = np.all(poses[:known, :2] == self.xy[:known], axis=1)
+        return keep
+
+    def kept_pairs(self, vmap: VirtualMap, kept: np.ndarray, blocked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The visible pairs of the unmoved keyframes ``kept``: the cached ones where no
+        known-occupied cell changed within sensor reach, else every landmark in range with
+        its cached visibility unless a changed cell lies near its segment (tested again)."""
+        if not len(kept):
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        changed = changed_cells(self.blocked, blocked)
+        xy = self.xy[kept]
+        near = _any_in_boxes(changed, vmap.grid, xy, xy, vmap.config.sensor_range + vmap.grid.resolution)
+        rows = _spans(self.starts[kept[~near]], self.starts[kept[~near] + 1])
+        pose_idx = [self.observations.pose_idx[rows]]
+        landmark_idx = [self.observations.landmark_idx[rows]]
+        if near.any():
+            retest = kept[near]
+            slot, in_range = vmap.in_range_pairs(self.xy[retest])
+            owner = retest[slot]
+            visible = self.was_visible(vmap, retest, owner, in_range)
+            touched = _any_in_boxes(changed, vmap.grid, self.xy[owner], vmap.landmark_xy[in_range],
+                                  vmap.grid.resolution)
+            visible[touched] = vmap.line_of_sight(self.xy[owner[touched]], in_range[touched], blocked)
+            pose_idx.append(owner[visible])
+            landmark_idx.append(in_range[visible])
+        return np.concatenate(pose_idx), np.concatenate(landmark_idx)
+
+    def was_visible(self, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray,
+                    landmark_idx: np.ndarray) -> np.ndarray:
+        """Whether each pair (of keyframes ``poses``) was visible at the previous decision."""
+        rows = _spans(self.starts[poses], self.starts[poses + 1])
+        cached = np.sort(self.observations.pose_idx[rows] * vmap.num_landmarks + self.observations.landmark_idx[rows])
+        keys = pose_idx * vmap.num_landmarks + landmark_idx
+        if not len(cached):
+            return np.zeros(len(keys), dtype=bool)
+        return cached[np.minimum(np.searchsorted(cached, keys), len(cached) - 1)] == keys
+
+    def jacobians(self, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray, landmark_idx: np.ndarray,
+                  keep: np.ndarray) -> Observations:
+        """The observations of the pairs: Jacobians copied for the unmoved keyframes'
+        previously visible pairs, computed (:meth:`Observations.of_pairs`) for the rest."""
+        gain = np.empty((len(pose_idx), 2, 3))
+        noise = np.empty((len(pose_idx), 2, 2))
+        copied = keep[pose_idx]
+        if copied.any():
+            old = self.observations
+            keys = old.pose_idx * vmap.num_landmarks + old.landmark_idx
+            order = np.argsort(keys, kind="stable")
+            wanted = pose_idx[copied] * vmap.num_landmarks + landmark_idx[copied]
+            found = order[np.minimum(np.searchsorted(keys[order], wanted), len(keys) - 1)]
+            hit = keys[found] == wanted  # a pair that became visible (a wall went) has none
+            rows = np.flatnonzero(copied)
+            gain[rows[hit]], noise[rows[hit]] = old.gain[found[hit]], old.noise[found[hit]]
+            copied[rows[~hit]] = False
+        computed = Observations.of_pairs(vmap, poses, pose_idx[~copied], landmark_idx[~copied])
+        gain[~copied], noise[~copied] = computed.gain, computed.noise
+        return Observations(pose_idx, landmark_idx, gain, noise)
+
+
+def _spans(begins: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """The concatenated index ranges ``begins[k]:ends[k]`` (in the given order)."""
+    lengths = ends - begins
+    if not lengths.sum():
+        return np.zeros(0, dtype=np.int64)
+    offsets = np.repeat(begins - np.r_[0, np.cumsum(lengths)[:-1]], lengths)
+    return np.arange(lengths.sum()) + offsets
+
+
+def changed_cells(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """Summed-area table ``(ny + 1, nx + 1)`` of the cells that differ between two masks."""
+    table = np.zeros((before.shape[0] + 1, before.shape[1] + 1), dtype=np.int64)
+    table[1:, 1:] = np.cumsum(np.cumsum(before != after, axis=0), axis=1)
+    return table
+
+
+def _any_in_boxes(table: np.ndarray, grid: GridSpec, a: np.ndarray, b: np.ndarray, margin: float) -> np.ndarray:
+    """``(K,)``: whether the summed-area ``table`` counts any cell in the axis-aligned box
+    spanning points ``a`` and ``b`` (``(K, 2)``) grown by ``margin`` (m) on every side."""
+    if not table[-1, -1]:
+        return np.zeros(len(a), dtype=bool)
+    low = grid.world_to_cell(np.minimum(a, b) - margin)
+    high = grid.world_to_cell(np.maximum(a, b) + margin) + 1
+    lo_y, hi_y = np.clip(low[:, 0], 0, grid.ny), np.clip(high[:, 0], 0, grid.ny)
+    lo_x, hi_x = np.clip(low[:, 1], 0, grid.nx), np.clip(high[:, 1], 0, grid.nx)
+    return (table[hi_y, hi_x] - table[lo_y, hi_x] - table[hi_y, lo_x] + table[lo_y, lo_x]) > 0
+
+
+def fused_map(fast: FastContext, observations: Observations, pose_covs: np.ndarray,
+              prior: np.ndarray) -> np.ndarray:
+    """``(C, L, 2, 2)``: the virtual map after fusing ``observations`` into ``prior`` for
+    each of ``C`` sets of pose covariances ``(C, N, 3, 3)`` (:func:`fuse_batched` on the
+    decision's fusion rounds: :meth:`Observations.fuse` for all sets in one pass)."""
+    maps = np.repeat(prior[None], len(pose_covs), axis=0)
+    if len(observations.pose_idx):
+        rounds = fast.rounds_of(observations.landmark_idx)
+        maps[:, rounds.landmarks] = fuse_batched(rounds, observations.pose_idx, observations.gain,
+                                                 observations.noise, pose_covs, prior[rounds.landmarks])
+    return maps
+
+
 # ---------------------------------------------------------------------- per-decision state
 
 
@@ -313,18 +459,22 @@ class EMEvaluation:
         return normalize_rewards(self.raw, self.nearest, planning.reward)
 
 
-def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: str = "reference") -> DecisionContext:
+def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: str = "reference",
+                          cache: ObservationCache | None = None) -> DecisionContext:
     """Old marginals, what each keyframe sees on the virtual map and the map itself (U0):
     what every candidate of one decision shares (also the exploration graph's features).
     ``backend="fast"`` reads the marginals from one factorisation of the live graph and
-    keeps it for the candidates (explore_rl/planning/em_fast.py)."""
+    keeps it for the candidates (explore_rl/planning/em_fast.py); ``cache`` carries the
+    keyframes' observations over from the previous decision (:class:`ObservationCache`)."""
     session = state.session
     graph = session.graph
     blocked = session.occupancy.known_occupied
     poses = graph.poses_se2()
     pose_covs, fast = pose_covariances(graph, poses, backend)
-    observations = Observations.of(vmap, poses, blocked)
-    landmark_covs = observations.fuse(vmap.prior_covariances(), pose_covs)
+    observations = (Observations.of(vmap, poses, blocked) if cache is None
+                    else cache.observations_of(vmap, poses, blocked))
+    landmark_covs = (observations.fuse(vmap.prior_covariances(), pose_covs) if fast is None
+                     else fused_map(fast, observations, pose_covs[None], vmap.prior_covariances())[0])
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
     return DecisionContext(graph, vmap, blocked, float(state.travel),
                            float(session.config.keyframe_distance), poses, pose_covs,
@@ -348,6 +498,7 @@ class EMPlanner:
         self.em = em or getattr(planning, "em", None) or EMConfig()
         self.robot = robot or RobotConfig()
         self._vmap: VirtualMap | None = None
+        self._observations = ObservationCache() if self.em.backend == "fast" else None
         self.last_evaluation: EMEvaluation | None = None
 
     def choose(self, state: ExplorationState) -> int:
@@ -390,7 +541,8 @@ class EMPlanner:
 
     def decision_context(self, state: ExplorationState) -> DecisionContext:
         """Old marginals, their observations and the current virtual map (U0)."""
-        return make_decision_context(state, self.virtual_map(state.session.occupancy.grid), self.em.backend)
+        return make_decision_context(state, self.virtual_map(state.session.occupancy.grid), self.em.backend,
+                                     self._observations)
 
     # ------------------------------------------------------------ one candidate
 
@@ -412,9 +564,9 @@ class EMPlanner:
         """``U'``: the virtual map after the predicted keyframes (and loops) join the graph."""
         if len(predicted) == 0:
             return context.u0
-        if (predicted.revisits or not self.em.shortcut_without_loops) and context.fast is not None:
-            covs = self.map_with_low_rank_update(context, predicted)
-        elif predicted.revisits or not self.em.shortcut_without_loops:
+        if context.fast is not None:
+            return float(self.utilities_fast(context, [predicted])[0])
+        if predicted.revisits or not self.em.shortcut_without_loops:
             covs = self.map_with_graph_copy(context, predicted)
         else:
             covs = self.map_with_chain(context, predicted)
@@ -441,37 +593,66 @@ class EMPlanner:
     def utilities_fast(self, context: DecisionContext, predicted: list[PredictedPath]) -> np.ndarray:
         """``U'`` of every candidate with the fast backend (explore_rl/planning/em_fast.py):
         loop candidates by a low-rank update of the factorised live graph and one batched
-        re-fusion of the virtual map; the others as :meth:`utility_after`."""
+        re-fusion of the virtual map, the others from the current map (as
+        :meth:`map_with_chain`); then every candidate's new keyframes fused in one pass."""
         u_after = np.full(len(predicted), context.u0)
-        visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
-        new = [Observations.of_pairs(context.vmap, p.poses, *pairs) for p, pairs in zip(predicted, visible)]
-        chain = [k for k, p in enumerate(predicted) if len(p) and not p.revisits and self.em.shortcut_without_loops]
-        for k in chain:
-            covs = propagate_chain(context.pose_covs[-1], context.poses[-1], predicted[k].poses,
-                                   step_covariances(context.graph, predicted[k].steps, self.em))
-            u_after[k] = context.vmap.utility(new[k].fuse(context.landmark_covs, covs))
-        loop = [k for k, p in enumerate(predicted) if len(p) and k not in chain]
+        moving = [k for k, p in enumerate(predicted) if len(p)]
+        if not moving:
+            return u_after
+        paths = [predicted[k] for k in moving]
+        loop = [i for i, p in enumerate(paths) if p.revisits or not self.em.shortcut_without_loops]
+        maps = np.repeat(context.landmark_covs[None], len(paths), axis=0)
+        new_covs = [None if i in loop else
+                    propagate_chain(context.pose_covs[-1], context.poses[-1], p.poses,
+                                    step_covariances(context.graph, p.steps, self.em))
+                    for i, p in enumerate(paths)]
         if loop:
-            for k, covs in zip(loop, self.loop_maps(context, [predicted[k] for k in loop], [new[k] for k in loop])):
-                u_after[k] = context.vmap.utility(covs)
+            maps[loop], loop_covs = self.loop_maps(context, [paths[i] for i in loop])
+            for i, covs in zip(loop, loop_covs):
+                new_covs[i] = covs
+        fuse_each(maps, self.new_observations(context, paths), new_covs)
+        u_after[moving] = [context.vmap.utility(covs) for covs in maps]
         return u_after
 
-    def loop_maps(self, context: DecisionContext, predicted: list[PredictedPath],
-                  new: list[Observations]) -> list[np.ndarray]:
-        """Virtual maps ``(L, 2, 2)`` after each loop candidate: every keyframe's covariance
-        by the low-rank update, the old observations re-fused for all candidates in one
-        pass (``fuse_batched``), then each candidate's new poses in order."""
+    def new_observations(self, context: DecisionContext, predicted: list[PredictedPath]) -> list[Observations]:
+        """What each candidate's predicted keyframes see: one line-of-sight batch for the
+        distinct poses of all candidates, one Jacobian batch for all pairs."""
+        visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
+        sizes = np.array([len(p) for p in predicted])
+        offsets = np.r_[0, np.cumsum(sizes)]
+        poses = np.concatenate([p.poses for p in predicted])
+        pose_idx = np.concatenate([pairs[0] + offset for pairs, offset in zip(visible, offsets)])
+        landmark_idx = np.concatenate([pairs[1] for pairs in visible])
+        everything = Observations.of_pairs(context.vmap, poses, pose_idx, landmark_idx)
+        bounds = np.cumsum([len(pairs[0]) for pairs in visible])[:-1]
+        return [Observations(pairs[0], *parts) for pairs, *parts in zip(
+            visible, np.split(everything.landmark_idx, bounds), np.split(everything.gain, bounds),
+            np.split(everything.noise, bounds))]
+
+    def loop_maps(self, context: DecisionContext,
+                  predicted: list[PredictedPath]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Virtual maps ``(C, L, 2, 2)`` of the live keyframes after each loop candidate
+        (every keyframe's covariance by the low-rank update, the observations re-fused for
+        all candidates in one pass, ``fuse_batched``) and the predicted keyframes'
+        covariances ``(P, 3, 3)`` of each."""
         ssm, loop = ssm_covariance(self.em), loop_covariance(self.em)
         revisited = {r.keyframe_index for p in predicted for r in p.revisits}
-        context.fast.marginals.columns(sorted(revisited) + [len(context.poses) - 1])  # one solve for all
+        dims = list(PLANAR) if context.fast.decoupled else list(range(6))
+        context.fast.cross(sorted(revisited) + [len(context.poses) - 1], dims, dims)  # one solve for all
         covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
-        old = context.observations
-        prior = context.vmap.prior_covariances()
-        maps = [prior.copy() for _ in predicted]
-        if len(old.pose_idx):
-            rounds = context.fast.rounds_of(old.landmark_idx)
-            fused = fuse_batched(rounds, old.pose_idx, old.gain, old.noise, np.stack([c.old for c in covs]),
-                                 prior[rounds.landmarks])
-            for covs_map, fused_map in zip(maps, fused):
-                covs_map[rounds.landmarks] = fused_map
-        return [n.fuse(m, c.new) for m, n, c in zip(maps, new, covs)]
+        maps = fused_map(context.fast, context.observations, np.stack([c.old for c in covs]),
+                         context.vmap.prior_covariances())
+        return maps, [c.new for c in covs]
+
+
+def fuse_each(maps: np.ndarray, observations: list[Observations], pose_covs: list[np.ndarray]) -> None:
+    """Fuse ``observations[k]`` (pose covariances ``pose_covs[k]``) into ``maps[k]`` in place
+    for every ``k``: :meth:`Observations.fuse` of each, in one pass (a landmark of map ``k``
+    is its own sequence, fused in the same order)."""
+    num_landmarks = maps.shape[1]
+    landmark_idx = np.concatenate([k * num_landmarks + o.landmark_idx for k, o in enumerate(observations)])
+    if not len(landmark_idx):
+        return
+    observed = np.concatenate([o.landmark_covariances(c) for o, c in zip(observations, pose_covs)])
+    flat = maps.reshape(-1, 2, 2)
+    fuse_in_order(flat, landmark_idx, observed)

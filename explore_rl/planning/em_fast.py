@@ -4,10 +4,15 @@ forward simulation (explore_rl/planning/em.py) without a graph copy per candidat
 Per decision, once (:class:`FastContext`):
 
 * the live graph's information matrix at iSAM2's linearisation point, factorised once
-  (:class:`~explore_rl.slam.marginals.SparseMarginals`): every keyframe's marginal by
-  selected inversion (the decision context's and the graph features' covariances) and,
-  on demand, the covariance columns of the few keyframes candidates revisit;
-* which virtual-map observations each landmark has (to re-fuse only what changes).
+  (:class:`~explore_rl.slam.marginals.SparseMarginals`; only its planar part, yaw/x/y in
+  3x3 blocks, when no factor couples it to roll/pitch/z, as on planar robots): every
+  keyframe's marginal by selected inversion (the decision context's and the graph
+  features' covariances) and, on demand, the covariance columns of the few keyframes
+  candidates revisit;
+* which virtual-map observations each landmark has, in fusion rounds (:class:`FuseRounds`),
+  shared by U0 and every candidate's re-fusion; the keyframes' observations themselves are
+  carried over from the previous decision where nothing they depend on changed
+  (:class:`~explore_rl.planning.em.ObservationCache`).
 
 Per candidate with a predicted loop (:func:`loop_update`), instead of copying iSAM2:
 
@@ -16,7 +21,8 @@ Per candidate with a predicted loop (:func:`loop_update`), instead of copying iS
    cross-covariances with every old keyframe (through the last keyframe's column);
 2. each predicted loop ``(r, k)`` is one more 6-dof factor: all loops together are a
    rank-``6m`` update of that joint (Woodbury), which needs only the covariance columns
-   of the revisited keyframes ``r`` and of the last keyframe;
+   of the revisited keyframes ``r`` and of the last keyframe (rank ``3m`` and three
+   columns each when planar and off-plane dofs are decoupled);
 3. the virtual map is fused again from the prior, in the same order and with the same
    covariance-intersection arithmetic as the reference, but for all loop candidates in
    one pass of rounds (:func:`fuse_batched`): a round costs ~20 numpy calls whatever its
@@ -46,10 +52,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 
 from explore_rl.planning.config import EMConfig
 from explore_rl.planning.virtual_map import ci_weight
-from explore_rl.slam.marginals import BLOCK, SparseMarginals
+from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 
 if TYPE_CHECKING:
@@ -59,6 +66,8 @@ if TYPE_CHECKING:
 # Rows/columns (yaw, x, y) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz): the
 # ones the world-frame (x, y, yaw) covariance reads.
 ROT_Z, TRANS_X, TRANS_Y = 2, 3, 4
+PLANAR = (ROT_Z, TRANS_X, TRANS_Y)
+OFF_PLANE = (0, 1, 5)  # roll, pitch, z
 
 
 # ---------------------------------------------------------------------- SE(3) of planar poses
@@ -108,22 +117,74 @@ def world_from_tangent(covs: np.ndarray, poses: np.ndarray) -> np.ndarray:
 
 @dataclass
 class FastContext:
-    """What the fast backend shares between the candidates of one decision."""
+    """What the fast backend shares between the candidates of one decision.
 
-    marginals: SparseMarginals
+    When no factor couples the planar dofs (yaw, x, y) with roll, pitch and z (planar
+    poses, planar factors with diagonal noise: ``planar_decoupled``), only the planar part
+    of the system is factorised (3x3 blocks: about half the cost); the off-plane blocks of
+    ``tangent_covs`` are then zero, and nothing reads them (the planar rows of every
+    product with a planar pose's adjoint involve only planar dofs).
+    """
+
+    marginals: SparseMarginals  # the 6-dof system, or its planar part (``decoupled``)
     tangent_covs: np.ndarray  # (N, 6, 6) every keyframe's marginal (Pose3 tangent, body frame)
+    decoupled: bool  # ``marginals`` holds the planar system only
+    information: sp.spmatrix  # the 6-dof system, for :meth:`full`
     rounds: FuseRounds | None = None  # the current observations in fusion rounds (set by the context)
+    _full: FastContext | None = None
 
     @classmethod
-    def of(cls, graph: PoseGraph) -> FastContext:
-        marginals = SparseMarginals(graph.information_matrix())
-        return cls(marginals, marginals.diagonal_blocks())
+    def of(cls, graph: PoseGraph, planar: bool = True) -> FastContext:
+        """Factorise the live graph (its planar part when ``planar`` and decoupled)."""
+        information = graph.information_matrix()
+        if planar and planar_decoupled(information):
+            scalar = scalar_indices(np.arange(information.shape[0] // BLOCK)).reshape(-1, BLOCK)[:, list(PLANAR)]
+            marginals = SparseMarginals(information[scalar.ravel()][:, scalar.ravel()], block=len(PLANAR))
+            covs = np.zeros((marginals.num_blocks, BLOCK, BLOCK))
+            covs[:, 2:5, 2:5] = marginals.diagonal_blocks()  # PLANAR = (2, 3, 4)
+            return cls(marginals, covs, True, information)
+        marginals = SparseMarginals(information)
+        return cls(marginals, marginals.diagonal_blocks(), False, information)
+
+    def full(self) -> FastContext:
+        """The 6-dof factorisation (built on demand if a planar context meets an update
+        that couples the planar dofs with the others)."""
+        if not self.decoupled:
+            return self
+        if self._full is None:
+            marginals = SparseMarginals(self.information)
+            self._full = FastContext(marginals, marginals.diagonal_blocks(), False, self.information)
+        return self._full
+
+    def cross(self, poses, dims: list[int], rows: list[int]) -> np.ndarray:
+        """``(N, len(rows), k, len(dims))``: ``Cov(xi_a[rows], xi_p[dims])`` for every
+        keyframe ``a`` and each of the ``k`` keyframes ``poses`` (tangent components)."""
+        n, k = self.marginals.num_blocks, len(np.atleast_1d(poses))
+        if self.decoupled:
+            local = [PLANAR.index(d) for d in dims]
+            columns = self.marginals.columns(poses, local).reshape(n, len(PLANAR), k, len(dims))
+            return columns[:, [PLANAR.index(r) for r in rows]]
+        return self.marginals.columns(poses, dims).reshape(n, BLOCK, k, len(dims))[:, rows]
 
     def rounds_of(self, landmark_idx: np.ndarray) -> FuseRounds:
         """The fusion rounds of the current observations (built once per decision)."""
         if self.rounds is None:
             self.rounds = FuseRounds.of(landmark_idx)
         return self.rounds
+
+
+def planar_decoupled(information) -> bool:
+    """Whether the information matrix (Pose3 tangent order per pose) has no entry joining
+    a planar dof of one pose to an off-plane dof of any pose (planar poses, planar factors
+    with diagonal noise): then planar marginals and updates need only planar columns."""
+    coo = information.tocoo()
+    planar = np.isin(coo.row % BLOCK, PLANAR)
+    return not np.any((planar != np.isin(coo.col % BLOCK, PLANAR)) & (coo.data != 0))
+
+
+def _block_diagonal(matrices: np.ndarray) -> bool:
+    """Whether 6x6 tangent matrices ``(..., 6, 6)`` join no planar dof to an off-plane one."""
+    return not np.any(matrices[..., list(PLANAR), :][..., list(OFF_PLANE)])
 
 
 def fast_world_covariances(graph: PoseGraph, poses: np.ndarray) -> tuple[np.ndarray, FastContext]:
@@ -176,48 +237,59 @@ def loop_update(context: DecisionContext, fast: FastContext, predicted: Predicte
     adj_new = planar_adjoint(poses_new)  # (P, 6, 6)
     adj_new_inv = planar_adjoint_inverse(poses_new)
     adj_last = planar_adjoint(context.poses[last])[0]
+    steps = step_tangent_covariances(graph, predicted.steps, ssm_cov)
+    if fast.decoupled and not (_block_diagonal(steps) and _block_diagonal(loop_cov)):
+        fast = fast.full()  # predicted factors that couple the planar dofs with the others
     sigma_last = fast.tangent_covs[last]
 
     # 1. the chain: world-frame accumulated covariance W_k = Cov(eta_k)
-    steps = step_tangent_covariances(graph, predicted.steps, ssm_cov)
     world_steps = adj_new @ steps @ np.swapaxes(adj_new, 1, 2)
     world = adj_last @ sigma_last @ adj_last.T + np.cumsum(world_steps, axis=0)  # (P, 6, 6)
     new_tangent = adj_new_inv @ world @ np.swapaxes(adj_new_inv, 1, 2)
     old_tangent = fast.tangent_covs
     if m:
+        # planar poses and factors: the planar rows of every update involve only planar dofs
+        dims = list(PLANAR) if fast.decoupled else list(range(BLOCK))
         old_tangent, new_tangent = _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv,
-                                             adj_last, loop_cov, old_tangent, new_tangent)
+                                             adj_last, loop_cov, old_tangent, new_tangent, dims)
     return CandidateCovariances(world_from_tangent(old_tangent, context.poses),
                                 world_from_tangent(new_tangent, poses_new))
 
 
 def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_last, loop_cov,
-              old_tangent, new_tangent) -> tuple[np.ndarray, np.ndarray]:
+              old_tangent, new_tangent, dims: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """Condition the chain's joint on the ``m`` loops ``eta_k - eta_r ~ N(0, R)``; only the
-    planar rows/columns (yaw, x, y) of each updated marginal are needed, the rest are kept."""
-    n, m = len(context.poses), len(revisited)
-    planar = [ROT_Z, TRANS_X, TRANS_Y]
-    adj_r = planar_adjoint(context.poses[revisited])  # (m, 6, 6)
-    columns = fast.marginals.columns(np.r_[revisited, n - 1]).reshape(n, BLOCK, m + 1, BLOCK)
-    # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, 6)
-    rows = columns[:, planar]
+    planar rows/columns (yaw, x, y) of each updated marginal are needed, the rest are kept.
+    ``dims``: the tangent components of the loops that enter (all 6, or the planar 3 when
+    nothing couples them to roll, pitch and z: the same planar result at a quarter of the
+    cost, a rank-3m update from 3 covariance columns per revisited keyframe)."""
+    n, m, d = len(context.poses), len(revisited), len(dims)
+    planar = list(PLANAR)
+    sub = np.ix_(dims, dims)
+    adj_r = planar_adjoint(context.poses[revisited])[(slice(None),) + sub]  # (m, d, d)
+    adj_last, world = adj_last[sub], world[(slice(None),) + sub]
+    adj_new, adj_new_inv, loop_cov = adj_new[(slice(None),) + sub], adj_new_inv[(slice(None), planar)], loop_cov[sub]
+    columns = fast.cross(np.r_[revisited, n - 1], dims, planar + [c for c in dims if c not in planar])
+    # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, d)
+    rows = columns[:, :3]
     u_old = (rows[:, :, m] @ adj_last.T)[:, :, None] - (rows[:, :, :m, None, :] @ np.swapaxes(adj_r, 1, 2))[..., 0, :]
     # the loops' own covariance S0 = Cov(y) and R (world-frame loop noise at k_j)
-    at_r = columns[revisited].transpose(0, 2, 1, 3)  # (m, m + 1, 6, 6): Cov(xi_r, xi_j)
-    eta_r_r = adj_r[:, None] @ at_r[:, :m] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, 6, 6)
-    eta_r_k = adj_r @ at_r[:, m] @ adj_last.T  # (m, 6, 6): Cov(eta_r, eta_k) for any new k
-    eta_k_k = world[np.minimum(at[:, None], at[None, :])]  # (m, m, 6, 6)
+    by_dims = [(planar + [c for c in dims if c not in planar]).index(c) for c in dims]
+    at_r = columns[revisited][:, by_dims].transpose(0, 2, 1, 3)  # (m, m + 1, d, d): Cov(xi_r, xi_j)
+    eta_r_r = adj_r[:, None] @ at_r[:, :m] @ np.swapaxes(adj_r, 1, 2)[None]  # (m, m, d, d)
+    eta_r_k = adj_r @ at_r[:, m] @ adj_last.T  # (m, d, d): Cov(eta_r, eta_k) for any new k
+    eta_k_k = world[np.minimum(at[:, None], at[None, :])]  # (m, m, d, d)
     s0 = eta_k_k - np.swapaxes(eta_r_k, 1, 2)[None] - eta_r_k[:, None] + eta_r_r
     diag = np.arange(m)
     s0[diag, diag] += adj_new[at] @ loop_cov @ np.swapaxes(adj_new[at], 1, 2)
-    gain = np.linalg.inv(s0.transpose(0, 2, 1, 3).reshape(6 * m, 6 * m))
+    gain = np.linalg.inv(s0.transpose(0, 2, 1, 3).reshape(d * m, d * m))
     gain = 0.5 * (gain + gain.T)
-    # new keyframes: Cov(xi_k, y_j) = Ad(T_k^-1) [W_min(k, k_j) - Cov(eta_r_j, eta_k)^T]
+    # new keyframes: Cov(xi_k, y_j) = Ad(T_k^-1) [W_min(k, k_j) - Cov(eta_r_j, eta_k)^T], planar rows
     k = np.arange(len(world))
-    u_new = adj_new_inv[:, None] @ (world[np.minimum(k[:, None], at[None, :])] - np.swapaxes(eta_r_k, 1, 2)[None])
-    old_tangent = _downdate(old_tangent, u_old.reshape(n, 3, m * BLOCK), gain, planar)
-    new_tangent = _downdate(new_tangent, u_new[:, :, planar, :].transpose(0, 2, 1, 3).reshape(len(world), 3, -1),
-                            gain, planar)
+    inv_rows = adj_new_inv[..., dims] if d < BLOCK else adj_new_inv
+    u_new = inv_rows[:, None] @ (world[np.minimum(k[:, None], at[None, :])] - np.swapaxes(eta_r_k, 1, 2)[None])
+    old_tangent = _downdate(old_tangent, u_old.reshape(n, 3, m * d), gain, planar)
+    new_tangent = _downdate(new_tangent, u_new.transpose(0, 2, 1, 3).reshape(len(world), 3, -1), gain, planar)
     return old_tangent, new_tangent
 
 

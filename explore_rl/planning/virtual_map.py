@@ -230,15 +230,27 @@ class VirtualMap:
         ``blocked`` block, except inside the landmark's own cell; unknown cells do not).
         """
         poses = np.asarray(poses, float).reshape(-1, 3)
+        pose_idx, landmark_idx = self.in_range_pairs(poses)
+        visible = self.line_of_sight(poses[pose_idx], landmark_idx, blocked)
+        return pose_idx[visible], landmark_idx[visible]
+
+    def in_range_pairs(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(pose_index, landmark_index)`` of every landmark within ``sensor_range`` of a
+        pose (``(K, 2)`` or ``(K, 3)``), in pose order, then window order."""
+        xy = np.asarray(poses, float)[:, :2]
         lg = self.landmark_grid
-        cells = lg.world_to_cell(poses[:, :2])[:, None, :] + self._window[None]
+        cells = lg.world_to_cell(xy)[:, None, :] + self._window[None]
         inside = lg.in_bounds(cells)
         index = np.where(inside, cells[..., 0] * lg.nx + cells[..., 1], 0)
-        dist = np.linalg.norm(self.landmark_xy[index] - poses[:, None, :2], axis=-1)
+        dist = np.linalg.norm(self.landmark_xy[index] - xy[:, None], axis=-1)
         pose_idx, slot = np.nonzero(inside & (dist <= self.config.sensor_range))
-        landmark_idx = index[pose_idx, slot]
-        visible = line_of_sight(
-            poses[pose_idx, :2],
+        return pose_idx, index[pose_idx, slot]
+
+    def line_of_sight(self, poses: np.ndarray, landmark_idx: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+        """``(M,)``: whether each pose (``(M, 2)`` or ``(M, 3)``) sees its landmark past the
+        known-occupied cells of ``blocked`` (:meth:`visible_pairs`)."""
+        return line_of_sight(
+            np.asarray(poses, float)[:, :2],
             self.landmark_xy[landmark_idx],
             blocked,
             self.grid,
@@ -246,7 +258,6 @@ class VirtualMap:
             end_box=self.config.cell_size,
             max_batch_samples=self.config.max_batch_samples,
         )
-        return pose_idx[visible], landmark_idx[visible]
 
     def predict_landmark_covariances(
         self,

@@ -29,17 +29,23 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 BLOCK = 6  # Pose3 tangent dimension
+# Block updates of one elimination-tree level from which the solve scatters by a sparse
+# matrix product (~0.15 ms to build, then ~10x faster than ``np.subtract.at`` on big levels).
+SPARSE_SCATTER = 64
 
 
-def _splu(matrix: sp.csc_matrix, ordering: str) -> spla.SuperLU:
-    """LU without pivoting (symmetric positive definite input) in ``ordering``."""
-    return spla.splu(matrix, permc_spec=ordering, diag_pivot_thresh=0.0,
+def _splu(matrix: sp.csc_matrix, ordering: str, relax: int | None = None) -> spla.SuperLU:
+    """LU without pivoting (symmetric positive definite input) in ``ordering``; ``relax``:
+    SuperLU's supernode relaxation (the block size for a block system: its columns come in
+    blocks; ~40 % faster than the default on office graphs)."""
+    return spla.splu(matrix, permc_spec=ordering, diag_pivot_thresh=0.0, relax=relax,
                      options={"SymmetricMode": True})
 
 
 def block_ordering(information: sp.csr_matrix, num_blocks: int) -> np.ndarray:
     """``order[k]`` = the pose eliminated k-th: minimum degree on the pose adjacency."""
-    blocks = sp.csr_matrix(information).tobsr(blocksize=(BLOCK, BLOCK))
+    block = information.shape[0] // num_blocks
+    blocks = sp.csr_matrix(information).tobsr(blocksize=(block, block))
     pattern = sp.csr_matrix((np.ones(len(blocks.indices)), blocks.indices, blocks.indptr),
                             shape=(num_blocks, num_blocks))
     pattern = (pattern + sp.identity(num_blocks, format="csr") * num_blocks).tocsc()
@@ -47,9 +53,9 @@ def block_ordering(information: sp.csr_matrix, num_blocks: int) -> np.ndarray:
     return np.argsort(lu.perm_c)
 
 
-def scalar_indices(blocks: np.ndarray) -> np.ndarray:
-    """Scalar rows of the 6-blocks ``blocks`` (in the given order)."""
-    return (BLOCK * np.asarray(blocks)[:, None] + np.arange(BLOCK)).ravel()
+def scalar_indices(blocks: np.ndarray, block: int = BLOCK) -> np.ndarray:
+    """Scalar rows of the ``block``-blocks ``blocks`` (in the given order)."""
+    return (block * np.asarray(blocks)[:, None] + np.arange(block)).ravel()
 
 
 @dataclass
@@ -62,6 +68,20 @@ class _Level:
     pair_ids: np.ndarray  # (C, S, S) ids of Z[row_a, row_b] (lower block stored; pad: zero block)
     pair_transposed: np.ndarray  # (C, S, S) the stored block is Z[row_b, row_a]: transpose it
     diag_ids: np.ndarray  # (C,) ids of the diagonal blocks
+    scatter: sp.csr_matrix | None = None  # (U, V) sums the V valid slots into their U rows (built on use)
+    scatter_rows: np.ndarray | None = None  # (U,) those rows, ascending
+
+
+    def scatter_matrix(self) -> tuple[sp.csr_matrix, np.ndarray]:
+        """The ``(U, V)`` 0/1 matrix summing this level's ``V`` valid block updates into
+        their ``U`` distinct rows, and those rows (built once)."""
+        if self.scatter is None:
+            flat = self.rows[self.rows >= 0]
+            order = np.argsort(flat, kind="stable")
+            self.scatter_rows, starts = np.unique(flat[order], return_index=True)
+            self.scatter = sp.csr_matrix((np.ones(len(flat)), order, np.r_[starts, len(flat)]),
+                                         shape=(len(self.scatter_rows), len(flat)))
+        return self.scatter, self.scatter_rows
 
 
 @dataclass
@@ -76,51 +96,59 @@ class _Factor:
 
 
 class SparseMarginals:
-    """Marginal covariances of a linear Gaussian system ``H x = b`` over 6-vectors.
+    """Marginal covariances of a linear Gaussian system ``H x = b`` over ``block``-vectors
+    (6: Pose3 tangents; 3: their planar part when nothing couples it to the rest).
 
-    ``information`` is ``H`` (``6N x 6N``, symmetric positive definite, variables in
+    ``information`` is ``H`` (``bN x bN``, symmetric positive definite, variables in
     pose order). Factorised once at construction.
     """
 
-    def __init__(self, information: sp.spmatrix) -> None:
+    block = BLOCK  # scalars per variable (set per instance at construction)
+
+    def __init__(self, information: sp.spmatrix, block: int = BLOCK) -> None:
         information = sp.csr_matrix(information)
         size = information.shape[0]
-        if information.shape != (size, size) or size % BLOCK:
-            raise ValueError(f"information matrix must be square 6N x 6N, got {information.shape}")
-        self.num_blocks = size // BLOCK
+        self.block = block
+        if information.shape != (size, size) or size % block:
+            raise ValueError(f"information matrix must be square {block}N x {block}N, got {information.shape}")
+        self.num_blocks = size // block
         self.order = block_ordering(information, self.num_blocks)  # factor position -> pose
         self.position = np.argsort(self.order)  # pose -> factor position
-        scalar = scalar_indices(self.order)
-        permuted = information[scalar][:, scalar].tobsr(blocksize=(BLOCK, BLOCK)).tocsc()
-        self.lu = _splu(permuted, "NATURAL")
+        scalar = scalar_indices(self.order, block)
+        permuted = information[scalar][:, scalar].tobsr(blocksize=(block, block)).tocsc()
+        self.lu = _splu(permuted, "NATURAL", relax=block)
         identity = np.arange(size)
         if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
             raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
-        self._columns: dict[int, np.ndarray] = {}
+        self._columns: dict[tuple, np.ndarray] = {}  # (pose, components) -> (6N, c)
         self._diagonal: np.ndarray | None = None
         self._factor: _Factor | None = None
 
     # ------------------------------------------------------------- columns
 
-    def columns(self, poses) -> np.ndarray:
-        """``(6N, 6k)``: the covariance columns of ``poses`` (pose order rows), cached."""
+    def columns(self, poses, components=None) -> np.ndarray:
+        """``(bN, c k)``: the covariance columns of the ``components`` (``c`` of the ``b``
+        per block; default all) of each of ``poses`` (pose order rows), cached."""
+        block = self.block
+        components = tuple(range(block)) if components is None else tuple(int(c) for c in components)
+        width = len(components)
         poses = [int(p) for p in np.atleast_1d(poses)]
-        missing = [p for p in dict.fromkeys(poses) if p not in self._columns]
+        missing = [p for p in dict.fromkeys(poses) if (p, components) not in self._columns]
         if missing:
-            rhs = np.zeros((self.num_blocks, BLOCK, BLOCK * len(missing)))
+            rhs = np.zeros((self.num_blocks, block, width * len(missing)))
             for k, pose in enumerate(missing):
-                rhs[self.position[pose], :, BLOCK * k: BLOCK * (k + 1)] = np.eye(BLOCK)
-            solved = self.solve(rhs)[self.position].reshape(BLOCK * self.num_blocks, -1)
+                rhs[self.position[pose], list(components), width * k + np.arange(width)] = 1.0
+            solved = self.solve(rhs)[self.position].reshape(block * self.num_blocks, -1)
             for k, pose in enumerate(missing):
-                self._columns[pose] = solved[:, BLOCK * k: BLOCK * (k + 1)]
+                self._columns[(pose, components)] = solved[:, width * k: width * (k + 1)]
         if not poses:
-            return np.zeros((BLOCK * self.num_blocks, 0))
-        return np.hstack([self._columns[p] for p in poses])
+            return np.zeros((block * self.num_blocks, 0))
+        return np.hstack([self._columns[(p, components)] for p in poses])
 
     def cross_blocks(self, poses) -> np.ndarray:
         """``(N, k, 6, 6)``: block ``[i, j]`` is ``Cov(x_i, x_{poses[j]})``."""
         cols = self.columns(poses)
-        return cols.reshape(self.num_blocks, BLOCK, -1, BLOCK).transpose(0, 2, 1, 3)
+        return cols.reshape(self.num_blocks, self.block, -1, self.block).transpose(0, 2, 1, 3)
 
     # ------------------------------------------------------------- diagonal
 
@@ -159,7 +187,11 @@ class SparseMarginals:
             work[lv.columns] = y
             valid = lv.rows >= 0
             update = f.blocks[lv.l_ids[valid]] @ np.repeat(y, valid.sum(axis=1), axis=0)
-            np.subtract.at(work, lv.rows[valid], update)
+            if len(update) >= SPARSE_SCATTER:  # rows shared by several columns: a sparse sum beats ufunc.at
+                scatter, rows = lv.scatter_matrix()
+                work[rows] -= (scatter @ update.reshape(len(update), -1)).reshape(len(rows), *work.shape[1:])
+            else:
+                np.subtract.at(work, lv.rows[valid], update)
         work[:n] *= f.d_inv[:, :, None]  # D z = y
         for lv in f.levels:  # L^T x = z
             l_sc = np.swapaxes(f.blocks[lv.l_ids], -1, -2)  # (C, S, 6, 6): L[a, c]^T
@@ -175,15 +207,16 @@ class SparseMarginals:
 
     def _block_factor(self) -> _Factor:
         n = self.num_blocks
-        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(BLOCK, BLOCK))  # row c of L^T = column c of L
+        block = self.block
+        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(block, block))  # row c of L^T = column c of L
         by_column.sort_indices()
         indptr, indices = by_column.indptr, by_column.indices
         # stored block k = L[indices[k], column of k]^T (row block of L^T); Z shares the ids
-        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, BLOCK, BLOCK))])
+        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, block, block))])
         zero_id = len(indices)
         column_of = np.repeat(np.arange(n), np.diff(indptr))
         keys = column_of.astype(np.int64) * n + indices  # sorted: column-major, rows ascending
-        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, BLOCK)
+        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, block)
         diag_ids = indptr[:-1]  # first stored block of each column is its diagonal
         if not np.array_equal(indices[diag_ids], np.arange(n)):
             raise RuntimeError("factor without a full block diagonal")
@@ -208,16 +241,17 @@ class SparseMarginals:
         """Takahashi's two recurrences for the block columns of ``lv`` (in place in ``z``)."""
         c = lv.columns
         count, width = lv.rows.shape
-        l_sc = factor_blocks[lv.l_ids].reshape(count, width * BLOCK, BLOCK)  # (C, 6S, 6)
+        block = factor_blocks.shape[-1]
+        l_sc = factor_blocks[lv.l_ids].reshape(count, width * block, block)  # (C, bS, b)
         z_ss = z[lv.pair_ids]  # (C, S, S, 6, 6)
         z_ss[lv.pair_transposed] = np.swapaxes(z_ss[lv.pair_transposed], -1, -2)
-        z_ss = z_ss.transpose(0, 1, 3, 2, 4).reshape(count, width * BLOCK, width * BLOCK)
+        z_ss = z_ss.transpose(0, 1, 3, 2, 4).reshape(count, width * block, width * block)
         z_sc = -(z_ss @ l_sc) @ lcc_inv[c]  # (C, 6S, 6)
         first = np.swapaxes(lcc_inv[c], 1, 2) * d_inv[c][:, None, :]
         z_cc = (first - np.swapaxes(z_sc, 1, 2) @ l_sc) @ lcc_inv[c]
         z[lv.diag_ids] = 0.5 * (z_cc + np.swapaxes(z_cc, 1, 2))
         valid = lv.rows >= 0
-        z[lv.l_ids[valid]] = z_sc.reshape(count, width, BLOCK, BLOCK)[valid]
+        z[lv.l_ids[valid]] = z_sc.reshape(count, width, block, block)[valid]
 
     @staticmethod
     def _level(columns, indptr, indices, keys, zero_id, n) -> _Level:

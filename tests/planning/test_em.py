@@ -22,6 +22,8 @@ from explore_rl.planning.config import ActionSetConfig, PlanningConfig
 from explore_rl.planning.em import (
     EMConfig,
     EMPlanner,
+    ObservationCache,
+    Observations,
     propagate_chain,
     simulate_graph,
     step_covariances,
@@ -271,3 +273,63 @@ def test_evaluate_returns_aligned_terms_and_respects_the_cap():
     assert len(capped.indices) == 2 and longest not in capped.indices
     np.testing.assert_allclose(capped.u_after, full.u_after[:2])
     assert capped.chosen in capped.indices
+
+
+# ---------------------------------------------------------------------- observations carried over
+
+
+def assert_same_observations(actual: Observations, expected: Observations) -> None:
+    np.testing.assert_array_equal(actual.pose_idx, expected.pose_idx)
+    np.testing.assert_array_equal(actual.landmark_idx, expected.landmark_idx)
+    np.testing.assert_array_equal(actual.gain, expected.gain)
+    np.testing.assert_array_equal(actual.noise, expected.noise)
+
+
+def test_observation_cache_equals_fresh_observations_as_keyframes_move_and_walls_change():
+    """Carried-over observations are exactly the fresh ones: unmoved keyframes, moved ones
+    (a loop closure), walls that appear and disappear near some segments, new keyframes."""
+    rng = np.random.default_rng(3)
+    vmap = VirtualMap(GRID)
+    blocked = np.zeros(GRID.shape, dtype=bool)
+    blocked[rng.integers(0, 200, 300), rng.integers(0, 200, 300)] = True  # scattered wall cells
+    poses = np.column_stack([rng.uniform(2, 18, 40), rng.uniform(2, 18, 40), rng.uniform(-3, 3, 40)])
+    cache = ObservationCache()
+    steps = []
+    for step in range(5):
+        if step == 1:  # nothing changed but the yaw of a few (visibility and Jacobians ignore it)
+            poses[:5, 2] += 0.3
+        if step == 2:  # a wall appears next to a few keyframes, another cell is cleared
+            blocked[95:105, 100] = True
+            blocked[np.flatnonzero(blocked.ravel())[:3] // 200, np.flatnonzero(blocked.ravel())[:3] % 200] = False
+        if step == 3:  # a loop closure moves half of them; three new keyframes
+            poses[::2, :2] += rng.normal(0, 0.02, (20, 2))
+            poses = np.vstack([poses, [[10.0, 10.0, 0.0], [10.5, 10.0, 0.0], [11.0, 10.0, 0.0]]])
+        if step == 4:  # keyframes land next to the new wall cells
+            poses[:3, :2] = [[10.2, 10.0], [9.8, 9.7], [10.0, 10.4]]
+        expected = Observations.of(vmap, poses, blocked)
+        assert_same_observations(cache.observations_of(vmap, poses, blocked), expected)
+        steps.append(len(expected.pose_idx))
+    assert min(steps) > 1000  # the keyframes see many landmarks
+
+
+def test_observation_cache_keeps_what_it_can():
+    """An unmoved keyframe far from any change is not tested again (the saving)."""
+    vmap = VirtualMap(GRID)
+    blocked = np.zeros(GRID.shape, dtype=bool)
+    blocked[:, 100] = True  # a wall at x = 10 m
+    poses = np.array([[3.0, 3.0, 0.0], [17.0, 17.0, 0.0]])
+    cache = ObservationCache()
+    cache.observations_of(vmap, poses, blocked)
+    blocked[150:, 190] = True  # a change within reach of the second keyframe only
+    expected = Observations.of(vmap, poses, blocked)
+    tested = []
+    original = vmap.line_of_sight
+
+    def counting(xy, landmark_idx, grid_blocked):
+        tested.append(np.asarray(xy)[:, :2].copy())
+        return original(xy, landmark_idx, grid_blocked)
+
+    vmap.line_of_sight = counting
+    assert_same_observations(cache.observations_of(vmap, poses, blocked), expected)
+    retested = np.vstack(tested)
+    assert len(retested) and np.all(retested == poses[1, :2])  # only segments of the keyframe near the change

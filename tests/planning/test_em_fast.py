@@ -112,6 +112,56 @@ def test_fast_equals_reference_at_a_shared_linearisation_point(scale, shortcut):
     assert fast.chosen == reference.chosen
 
 
+def test_planar_only_update_equals_the_full_update(monkeypatch):
+    """Planar graphs (no factor joins yaw, x, y to roll, pitch, z): the loops' planar
+    components alone give the same utilities as all six."""
+    import explore_rl.planning.em_fast as em_fast
+
+    state = tour_state(3.0)
+    planar = planner(backend="fast").evaluate(state)
+    assert em_fast.FastContext.of(state.session.graph).decoupled
+    of = em_fast.FastContext.of.__func__
+    monkeypatch.setattr(em_fast.FastContext, "of", classmethod(lambda cls, graph: of(cls, graph, planar=False)))
+    full = planner(backend="fast").evaluate(state)
+    assert planar.loops.max() >= 1
+    np.testing.assert_allclose(planar.u_after, full.u_after, rtol=1e-12, atol=1e-9)
+
+
+def test_a_coupling_update_on_a_planar_context_uses_the_full_factorisation():
+    """A predicted loop whose noise couples yaw with roll: the planar factorisation is not
+    enough; the update switches to the 6-dof one and matches a 6-dof context."""
+    from explore_rl.planning.em import loop_covariance
+    from explore_rl.planning.em_fast import FastContext, loop_update
+
+    state = tour_state(3.0)
+    em = planner(backend="fast")
+    context = em.decision_context(state)
+    predicted = [em.predicted_keyframes(context, a.prediction) for a in em.actions(state)]
+    looping = next(p for p in predicted if p.revisits)
+    coupled = loop_covariance(em.em)
+    coupled[2, 0] = coupled[0, 2] = 0.3 * np.sqrt(coupled[0, 0] * coupled[2, 2])
+    planar = FastContext.of(state.session.graph)
+    full = FastContext.of(state.session.graph, planar=False)
+    assert planar.decoupled and not full.decoupled
+    ssm = ssm_covariance(em.em)
+    got = loop_update(context, planar, looping, state.session.graph, em.em, ssm, coupled)
+    expected = loop_update(context, full, looping, state.session.graph, em.em, ssm, coupled)
+    assert planar._full is not None  # the switch happened
+    np.testing.assert_allclose(got.old, expected.old, rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(got.new, expected.new, rtol=1e-10, atol=1e-14)
+
+
+def test_planar_decoupled_sees_a_coupling_entry():
+    import scipy.sparse as sp
+
+    from explore_rl.planning.em_fast import planar_decoupled
+
+    information = np.eye(12)
+    assert planar_decoupled(sp.csr_matrix(information))
+    information[2, 6] = information[6, 2] = 0.1  # yaw of pose 0 with roll of pose 1
+    assert not planar_decoupled(sp.csr_matrix(information))
+
+
 def test_fast_context_has_the_reference_marginals():
     state = tour_state(3.0)
     reference = planner().decision_context(state)
@@ -146,7 +196,8 @@ SKIP = 3
 
 
 def scene_decisions(scene: str) -> list[tuple]:
-    """(reference, fast) evaluations at the decisions of one random-frontier episode."""
+    """(reference, fast) evaluations at the decisions of one random-frontier episode (both
+    planners see every decision: the fast one carries observations over between them)."""
     config = load_config([f"scene={scene}", "slam=model", "seed=0", "policy=random", "explore.progress_bar=false",
                           f"explore.max_decisions={DECISIONS[scene]}"])
     em = {backend: EMPlanner(PolicyConfig(name="em"), dataclasses.replace(
@@ -155,9 +206,10 @@ def scene_decisions(scene: str) -> list[tuple]:
     explorer = Explorer(config)
     out = []
     while (state := explorer.next_state()) is not None:
+        actions = em["reference"].actions(state)
+        evaluations = tuple(em[b].evaluate(state, actions) for b in ("reference", "fast"))
         if len(explorer.result.records) >= SKIP:
-            actions = em["reference"].actions(state)
-            out.append(tuple(em[b].evaluate(state, actions) for b in ("reference", "fast")))
+            out.append(evaluations)
         explorer.act(state, int(explorer.policy.choose(state)))
     return out
 

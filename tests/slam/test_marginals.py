@@ -89,6 +89,8 @@ def test_selected_inverse_of_a_random_sparse_system():
     expected = np.stack([inverse[6 * i: 6 * i + 6, 6 * i: 6 * i + 6] for i in range(n)])
     np.testing.assert_allclose(marginals.diagonal_blocks(), expected, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(marginals.columns([17, 3]), inverse[:, np.r_[102:108, 18:24]], rtol=1e-9, atol=1e-12)
+    some = marginals.columns([17, 3], components=(2, 3, 4))  # a few tangent components of each
+    np.testing.assert_allclose(some, inverse[:, [104, 105, 106, 20, 21, 22]], rtol=1e-9, atol=1e-12)
 
 
 def test_bad_shape_fails_in_one_line():
