@@ -100,15 +100,17 @@ def timed_batches(collector, batches: int) -> tuple[list, list[float], dict]:
     return data, seconds, usage
 
 
-def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[float]]]:
+def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[float]], list[float]]:
     """Each worker's batches, one worker after the other, in this process: the actions
-    ``[workers, batches, T]`` and each worker's per-batch seconds."""
-    actions, seconds = [], []
+    ``[workers, batches, T]``, each worker's per-batch seconds and the CPU fraction this
+    process got while collecting them."""
+    actions, seconds, cpu = [], [], []
     for factory in env_factories(config):
-        data, times, _ = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
+        data, times, usage = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
         actions.append(torch.stack([batch["action"] for batch in data]))
         seconds.append(times)
-    return torch.stack(actions), seconds
+        cpu.append(usage["main_cpu_fraction"])
+    return torch.stack(actions), seconds, cpu
 
 
 def two_workers(config, policy, learner: Learner, batches: int) -> tuple[torch.Tensor, list[float], dict, float]:
@@ -149,6 +151,18 @@ def async_workers(config, policy, learner: Learner, batches: int) -> dict:
             "batches_handed": sum(map(len, handed.values()))}
 
 
+def per_cpu_speedup(dps_1: float, cpu_1: list[float], dps_async: float, cpu_async: dict) -> float | None:
+    """What ``speedup_async`` would be if every process had got what it used at the rate it
+    used it: decisions per CPU-second (learner included) of the async run over those of the
+    1-worker run, times 2 cores. An upper estimate for a loaded machine, where the measured
+    ratio says more about the other jobs than about the code: it leaves out the time a
+    worker waits (no CPU used then). None without per-worker figures."""
+    if "worker_cpu_fraction" not in cpu_async:
+        return None
+    used_async = sum(cpu_async["worker_cpu_fraction"]) + cpu_async["main_cpu_fraction"]
+    return round(WORKERS * (dps_async / used_async) / (dps_1 / (sum(cpu_1) / len(cpu_1))), 3)
+
+
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
     batches = 1 if args.smoke else 2 if args.quick else 12
@@ -159,7 +173,7 @@ def main() -> None:
     torch.manual_seed(0)
     learner = Learner(config, make_env(config).action_spec)
     policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in both runs
-    actions_1, seconds_1 = one_worker(config, policy, batches)
+    actions_1, seconds_1, cpu_1 = one_worker(config, policy, batches)
     actions_2, seconds_2, usage, ms_update = two_workers(config, policy, learner, batches)
     async_config = load_config(["scene=office", "slam=model", f"collector.workers={WORKERS}", "collector.kind=async",
                                 *overrides])
@@ -167,6 +181,7 @@ def main() -> None:
     dps_async = sum(run_async["dps_per_worker"])
     decisions = actions_2.numel()
     dps_1, dps_2 = decisions / sum(map(sum, seconds_1)), decisions / sum(seconds_2)
+    per_cpu = per_cpu_speedup(dps_1, cpu_1, dps_async, run_async["cpu"])
     sync_bound = sum(map(sum, seconds_1)) / sum(max(times) for times in zip(*seconds_1))
     async_bound = sum(map(sum, seconds_1)) / max(map(sum, seconds_1))
     update_fraction = ms_update / (ms_update + 1e3 * sum(seconds_2) / batches)
@@ -188,7 +203,8 @@ def main() -> None:
           "dps_async_per_worker": [round(r, 3) for r in run_async["dps_per_worker"]], "cpu_async": run_async["cpu"],
           "ms_update_async": round(run_async["ms_update"], 1), "batches_handed_async": run_async["batches_handed"],
           "max_policy_lag": async_config.collector.policy_lag(), "policy_lag_max_async": run_async["policy_lag_max"],
-          "dps_async": round(dps_async, 3), "speedup_async": round(dps_async / dps_1, 3)})
+          "dps_async": round(dps_async, 3), "speedup_async": round(dps_async / dps_1, 3),
+          "cpu_1": cpu_1, "speedup_async_per_cpu": per_cpu})
 
 
 if __name__ == "__main__":

@@ -6,14 +6,11 @@ from __future__ import annotations
 
 import itertools
 import random
-import time
 
 import pytest
 import torch
 from tensordict import TensorDict
 from tensordict.nn import TensorDictModule
-from torchrl.data import Composite, Unbounded
-from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType
 
 from explore_rl.config import load_config
@@ -21,6 +18,7 @@ from explore_rl.envs.keys import EM_ACTION, POLICY_LAG, WORKER
 from explore_rl.models.checkpoint import read_checkpoint
 from explore_rl.trainer.async_collector import LagBoundedAsyncCollector, PolicyLagGate
 from explore_rl.trainer.episodes import EpisodeTracker
+from tests.trainer.counting_env import CountingEnvFactory
 from tests.trainer.test_a2c import config_for
 
 # ---------------------------------------------------------------------- the gate (pure)
@@ -75,46 +73,6 @@ def test_a_lag_below_the_number_of_workers_is_refused():
 
 
 # ---------------------------------------------------------------------- TorchRL's async workers
-
-
-class CountingEnv(EnvBase):
-    """Stand-in env (this test only): observes its worker and its step count, sleeps
-    ``delay`` s per step (worker speeds), never ends."""
-
-    def __init__(self, worker: int, delay: float):
-        super().__init__()
-        self.worker, self.delay, self.steps = worker, delay, 0
-        self.observation_spec = Composite(worker_seen=Unbounded((), dtype=torch.int64),
-                                          count=Unbounded((), dtype=torch.int64), one=Unbounded((1,)))
-        self.action_spec = Unbounded((1,))
-        self.reward_spec = Unbounded((1,))
-
-    def observe(self) -> TensorDict:
-        return TensorDict(worker_seen=torch.tensor(self.worker), count=torch.tensor(self.steps), one=torch.ones(1))
-
-    def _reset(self, tensordict=None, **kwargs):
-        return self.observe()
-
-    def _step(self, tensordict):
-        time.sleep(self.delay)
-        self.steps += 1
-        out = self.observe()
-        out.update(reward=torch.zeros(1), done=torch.zeros(1, dtype=torch.bool),
-                   terminated=torch.zeros(1, dtype=torch.bool))
-        return out
-
-    def _set_seed(self, seed):
-        pass
-
-
-class CountingEnvFactory:
-    """Picklable factory of worker ``worker``'s stand-in env (spawned workers call it)."""
-
-    def __init__(self, worker: int, delay: float):
-        self.worker, self.delay = worker, delay
-
-    def __call__(self) -> CountingEnv:
-        return CountingEnv(self.worker, self.delay)
 
 
 def test_async_batches_name_their_worker_and_stay_within_the_lag():
