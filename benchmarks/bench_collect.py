@@ -48,6 +48,7 @@ import torch  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.envs import make_env  # noqa: E402
 from explore_rl.envs.keys import POLICY_LAG, WORKER  # noqa: E402
+from explore_rl.trainer.async_collector import gated_schedule  # noqa: E402
 from explore_rl.trainer.a2c import (Learner, as_workers_by_time, env_factories, local_collector,  # noqa: E402
                                     make_collector)
 
@@ -151,6 +152,17 @@ def async_workers(config, policy, learner: Learner, batches: int) -> dict:
             "batches_handed": sum(map(len, handed.values()))}
 
 
+def gated_bound(seconds_1: list[list[float]], max_lag: int) -> float:
+    """``async_bound`` with the policy-lag gate: the 1-worker time of both workers' batches
+    over the time the gate (``gated_schedule``, updates taking no time) needs to hand out
+    all of them when the two workers run side by side."""
+    quota, handed = len(seconds_1[0]), [0] * len(seconds_1)
+    for worker, _, time_handed in gated_schedule(seconds_1, max_lag):
+        handed[worker] += 1
+        if min(handed) == quota:  # the last worker handed out its last batch
+            return sum(map(sum, seconds_1)) / time_handed
+
+
 def per_cpu_speedup(dps_1: float, cpu_1: list[float], dps_async: float, cpu_async: dict) -> float | None:
     """What ``speedup_async`` would be if every process had got what it used at the rate it
     used it: decisions per CPU-second (learner included) of the async run over those of the
@@ -198,6 +210,7 @@ def main() -> None:
           "s_per_batch_2": [round(t, 2) for t in seconds_2],
           "cpu_2": usage, "sync_bound": round(sync_bound, 3), "async_bound": round(async_bound, 3), "ms_update_per_batch": round(ms_update, 1),
           "update_fraction": round(update_fraction, 4),
+          "gated_bounds": {lag: round(gated_bound(seconds_1, lag), 3) for lag in (WORKERS, WORKERS + 1)},
           "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3),
           "same_actions_async": bool(torch.equal(actions_1, run_async["actions"])),
           "dps_async_per_worker": [round(r, 3) for r in run_async["dps_per_worker"]], "cpu_async": run_async["cpu"],

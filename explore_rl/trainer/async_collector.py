@@ -21,6 +21,7 @@ not give, and this module adds:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 import torch
@@ -76,6 +77,32 @@ class PolicyLagGate:
         handed out within the bound, one per version, oldest start first?"""
         starts = sorted(start for w, start in enumerate(self.start) if w != worker) + [self.handed]
         return all(self.handed + 1 + k - start <= self.max_lag for k, start in enumerate(starts))
+
+
+def gated_schedule(durations: list[list[float]], max_lag: int, update_s: float = 0.0
+                   ) -> Iterator[tuple[int, int, float]]:
+    """The gate at work on workers whose ``k``-th batches take ``durations[w][k]`` seconds
+    (cycling through the list): ``(worker, lag, time)`` of each batch handed out, in order.
+    A worker starts its next batch when its last one is handed out; the learner then
+    updates for ``update_s`` seconds, handing nothing out meanwhile. What bench_collect
+    bounds the async speed-up with, and what the gate's tests run."""
+    workers, gate = len(durations), PolicyLagGate(len(durations), max_lag)
+    done_at, taken, clock = [d[0] for d in durations], [0] * workers, 0.0
+    while True:
+        released = gate.release()
+        if released is None:  # wait for the next worker to finish a batch
+            collecting = [w for w in range(workers) if w not in gate.held]
+            if not collecting:
+                raise RuntimeError("the policy-lag gate holds every worker")  # PolicyLagGate says why not
+            worker = min(collecting, key=done_at.__getitem__)
+            clock = max(clock, done_at[worker])
+            gate.hold(worker, None)
+            continue
+        worker, _, lag = released
+        yield worker, lag, clock
+        taken[worker] += 1
+        done_at[worker] = clock + durations[worker][taken[worker] % len(durations[worker])]
+        clock += update_s
 
 
 class LagBoundedAsyncCollector(MultiAsyncCollector):

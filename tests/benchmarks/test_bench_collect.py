@@ -10,7 +10,8 @@ from tests.benchmarks.smoke import run_script
 
 KEYS = ["same_actions", "sync_bound", "async_bound", "ms_update_per_batch", "dps_1", "dps_2", "scaling",
         "same_actions_async", "dps_async", "dps_async_per_worker", "speedup_async", "cpu_async",
-        "max_policy_lag", "policy_lag_max_async", "cpu_1", "speedup_async_per_cpu"]
+        "max_policy_lag", "policy_lag_max_async", "cpu_1", "speedup_async_per_cpu",
+        "gated_bounds"]
 
 
 def test_bench_collect_smoke(tmp_path: Path) -> None:

@@ -16,7 +16,7 @@ from torchrl.envs.utils import ExplorationType
 from explore_rl.config import load_config
 from explore_rl.envs.keys import EM_ACTION, POLICY_LAG, WORKER
 from explore_rl.models.checkpoint import read_checkpoint
-from explore_rl.trainer.async_collector import LagBoundedAsyncCollector, PolicyLagGate
+from explore_rl.trainer.async_collector import LagBoundedAsyncCollector, PolicyLagGate, gated_schedule
 from explore_rl.trainer.episodes import EpisodeTracker
 from tests.trainer.counting_env import CountingEnvFactory
 from tests.trainer.test_a2c import config_for
@@ -25,25 +25,8 @@ from tests.trainer.test_a2c import config_for
 
 
 def simulate_gate(durations: list[list[float]], max_lag: int, batches: int) -> list[tuple[int, int]]:
-    """Workers whose ``k``-th batches take ``durations[w][k]`` seconds (a worker starts its
-    next batch when its last one is handed out; handing out takes no time). Returns the
-    ``(worker, lag)`` of the first ``batches`` batches handed out; fails on a deadlock."""
-    workers, gate = len(durations), PolicyLagGate(len(durations), max_lag)
-    done_at, taken, clock, out = [d[0] for d in durations], [0] * workers, 0.0, []
-    while len(out) < batches:
-        released = gate.release()
-        if released is None:  # wait for the next worker to finish a batch
-            collecting = [w for w in range(workers) if w not in gate.held]
-            assert collecting, "deadlock: every worker waits"
-            w = min(collecting, key=lambda w: done_at[w])
-            clock = max(clock, done_at[w])
-            gate.hold(w, None)
-            continue
-        worker, _, lag = released
-        out.append((worker, lag))
-        taken[worker] += 1
-        done_at[worker] = clock + durations[worker][taken[worker]]
-    return out
+    """``(worker, lag)`` of the first ``batches`` batches the gate hands out (``gated_schedule``)."""
+    return [(worker, lag) for worker, lag, _ in itertools.islice(gated_schedule(durations, max_lag), batches)]
 
 
 @pytest.mark.parametrize("workers", [1, 2, 3, 4])
