@@ -1,12 +1,12 @@
 """A2C on exploration graphs (paper Sec. III-B) with TorchRL collectors, losses and loggers.
 
 One iteration: every worker takes ``algo.steps_per_update`` decisions with the current
-policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``; or, with
-``collector.kind=async``, one worker's decisions as they arrive, explore_rl/trainer/async_collector.py),
-the batch ``[workers, T]`` (``[1, T]`` async) gets its advantages from a TorchRL value estimator (GAE by default, per
-worker so trajectories never join), ``A2CLoss`` (weight ``algo.a2c_coef``) plus an
-optional *distillation* term (``algo.distill_coef``: EM's evaluation of every frontier of
-the same decisions; not A2C) gives one Adam step, optionally followed by
+policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``; with
+``collector.kind=async``, one worker's batch as it arrives: explore_rl/trainer/async_collector.py),
+the batch ``[workers, T]`` (async: ``[1, T]``) gets its advantages from a TorchRL value
+estimator (GAE by default, per worker so trajectories never join), ``A2CLoss`` (weight
+``algo.a2c_coef``) plus an optional *distillation* term (``algo.distill_coef``: EM's
+evaluation of every frontier of the same decisions; not A2C) gives one Adam step, optionally followed by
 ``algo.dagger_steps`` distillation steps on EM-labelled decisions replayed from a buffer
 (DAgger, explore_rl/trainer/imitation.py), and the collectors receive the new weights.
 
