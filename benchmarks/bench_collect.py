@@ -22,7 +22,10 @@ summed over the two workers running side by side; ``speedup_async`` = ``dps_asyn
 ``sync_bound``: the scaling a synchronous collector could reach on this work if two
 workers ran as fast as one, from the 1-worker per-batch times (each batch waits for the
 slower worker); ``async_bound``: the same if no worker ever waited for the other (an
-asynchronous collector; the slower worker's total). ``cpu_2``: during the 2-worker
+asynchronous collector; the slower worker's total); ``gated_bounds``: the same with the
+trainer's policy-lag gate at lag 2 and 3 (``gated_schedule``). ``cpu_1``: the 1-worker
+process's CPU fraction; ``speedup_async_per_cpu``: the async run's decisions per CPU-second
+over the 1-worker run's, times 2 (an estimate for a loaded machine). ``cpu_2``: during the 2-worker
 batches, the CPU fraction of this process (the learner's; it should idle) and of each
 worker, and each worker's busy threads (more than one would mean torch/BLAS/GTSAM threads
 oversubscribing the cores). The learner's
