@@ -1,4 +1,4 @@
-"""Decisions per second collected by the trainer's TorchRL collectors: 1 vs 2 workers.
+"""Decisions per second collected by the trainer's TorchRL collectors: 1 vs 2 workers, sync and async.
 
 The real environment (office, ``slam=model``) and the default actor sampling its
 actions, as in training. Both runs do the **same work**: the trainer's two worker
@@ -9,13 +9,23 @@ same episodes (``same_actions`` checks it):
 
 * 1 worker: TorchRL's ``Collector`` in this process, running worker 0's batches, then
   worker 1's (one core does all of it);
-* 2 workers: the trainer's ``MultiSyncCollector`` over two spawned workers.
+* 2 workers: the trainer's ``MultiSyncCollector`` over two spawned workers;
+* 2 workers async (``collector.kind=async``): the trainer's ``LagBoundedAsyncCollector``
+  over the same two workers, the learner updating on each batch as it arrives, on the
+  same cores, as in training (its weights not sent, so that the work stays the same).
+  ``same_actions_async``: each worker took the same decisions as in the 1-worker run.
 
 ``dps_1``, ``dps_2`` are decisions/s over the timed batches, ``scaling`` their ratio.
+``dps_async``: each worker's timed decisions over its own window (from its warm-up batch
+handed out to its last timed batch handed out; waits at the policy-lag gate included),
+summed over the two workers running side by side; ``speedup_async`` = ``dps_async / dps_1``.
 ``sync_bound``: the scaling a synchronous collector could reach on this work if two
 workers ran as fast as one, from the 1-worker per-batch times (each batch waits for the
 slower worker); ``async_bound``: the same if no worker ever waited for the other (an
-asynchronous collector; the slower worker's total). ``cpu_2``: during the 2-worker
+asynchronous collector; the slower worker's total); ``gated_bounds``: the same with the
+trainer's policy-lag gate at lag 2 and 3 (``gated_schedule``). ``cpu_1``: the 1-worker
+process's CPU fraction; ``speedup_async_per_cpu``: the async run's decisions per CPU-second
+over the 1-worker run's, times 2 (an estimate for a loaded machine). ``cpu_2``: during the 2-worker
 batches, the CPU fraction of this process (the learner's; it should idle) and of each
 worker, and each worker's busy threads (more than one would mean torch/BLAS/GTSAM threads
 oversubscribing the cores). The learner's
@@ -40,6 +50,8 @@ import torch  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.envs import make_env  # noqa: E402
+from explore_rl.envs.keys import POLICY_LAG, WORKER  # noqa: E402
+from explore_rl.trainer.async_collector import gated_schedule  # noqa: E402
 from explore_rl.trainer.a2c import (Learner, as_workers_by_time, env_factories, local_collector,  # noqa: E402
                                     make_collector)
 
@@ -56,39 +68,53 @@ def thread_cpu_s(pid: int) -> list[float]:
     return [(int(f[11]) + int(f[12])) / ticks for f in fields]
 
 
+class CpuMeter:
+    """Where the CPU went since it was started: this process's CPU fraction, and per worker
+    process of ``collector`` (if any) its CPU fraction and how many of its threads did > 5 %
+    of its work (oversubscription check)."""
+
+    def __init__(self, collector):
+        self.pids = [proc.pid for proc in getattr(collector, "procs", [])]
+        self.workers = [thread_cpu_s(pid) for pid in self.pids]
+        self.main, self.start = time.process_time(), time.perf_counter()
+
+    def usage(self) -> dict:
+        wall = time.perf_counter() - self.start
+        usage = {"main_cpu_fraction": round((time.process_time() - self.main) / wall, 3)}
+        after = [thread_cpu_s(pid) for pid in self.pids]
+        if self.pids and all(after):
+            work = [sum(threads) - sum(before) for before, threads in zip(self.workers, after)]
+            usage["worker_cpu_fraction"] = [round(w / wall, 3) for w in work]
+            usage["worker_busy_threads"] = [sum(t > 0.05 * w for t in threads) for w, threads in zip(work, after)]
+        return usage
+
+
 def timed_batches(collector, batches: int) -> tuple[list, list[float], dict]:
     """A warm-up batch, then ``batches`` batches and the seconds each took, and where the
-    CPU went meanwhile: this process's CPU fraction, and per worker process (if any) its
-    CPU fraction and how many of its threads did > 5 % of its work (oversubscription check)."""
+    CPU went meanwhile (:class:`CpuMeter`)."""
     iterator = iter(collector)
     next(iterator)
-    pids = [proc.pid for proc in getattr(collector, "procs", [])]
-    cpu_before, main_before, start_all = [thread_cpu_s(pid) for pid in pids], time.process_time(), time.perf_counter()
-    data, seconds = [], []
+    meter, data, seconds = CpuMeter(collector), [], []
     for _ in range(batches):
         start = time.perf_counter()
         data.append(next(iterator))
         seconds.append(time.perf_counter() - start)
-    wall = time.perf_counter() - start_all
-    usage = {"main_cpu_fraction": round((time.process_time() - main_before) / wall, 3)}
-    cpu_after = [thread_cpu_s(pid) for pid in pids]
-    if pids and all(cpu_after):
-        work = [sum(after) - sum(before) for before, after in zip(cpu_before, cpu_after)]
-        usage["worker_cpu_fraction"] = [round(w / wall, 3) for w in work]
-        usage["worker_busy_threads"] = [sum(t > 0.05 * w for t in after) for w, after in zip(work, cpu_after)]
+    usage = meter.usage()
     collector.shutdown()
     return data, seconds, usage
 
 
-def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[float]]]:
+def one_worker(config, policy, batches: int) -> tuple[torch.Tensor, list[list[float]], list[float]]:
     """Each worker's batches, one worker after the other, in this process: the actions
-    ``[workers, batches, T]`` and each worker's per-batch seconds."""
-    actions, seconds = [], []
+    ``[workers, batches, T]``, each worker's per-batch seconds and the CPU fraction this
+    process got while collecting them."""
+    actions, seconds, cpu = [], [], []
     for factory in env_factories(config):
-        data, times, _ = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
+        data, times, usage = timed_batches(local_collector(factory, policy, config.algo.steps_per_update), batches)
         actions.append(torch.stack([batch["action"] for batch in data]))
         seconds.append(times)
-    return torch.stack(actions), seconds
+        cpu.append(usage["main_cpu_fraction"])
+    return torch.stack(actions), seconds, cpu
 
 
 def two_workers(config, policy, learner: Learner, batches: int) -> tuple[torch.Tensor, list[float], dict, float]:
@@ -103,6 +129,55 @@ def two_workers(config, policy, learner: Learner, batches: int) -> tuple[torch.T
     return torch.stack([batch["action"] for batch in data], dim=1), seconds, usage, ms_update
 
 
+def async_workers(config, policy, learner: Learner, batches: int) -> dict:
+    """The trainer's async collector over the same two workers, the learner updating on
+    each batch as it arrives (weights not sent: the same work). Each worker's actions
+    ``[batches, T]`` after its warm-up batch, its decisions/s over its own window, the CPU
+    use, the largest policy lag of a batch and ms per update."""
+    collector = make_collector(config, policy)
+    handed: dict[int, list] = {w: [] for w in range(WORKERS)}  # (time handed out, batch) per worker
+    meter, updates_s = CpuMeter(collector), []
+    for batch in collector:
+        handed[int(batch[WORKER][0])].append((time.perf_counter(), batch))
+        start = time.perf_counter()
+        learner.update(as_workers_by_time(batch, WORKERS))  # as the trainer does, beside the workers
+        updates_s.append(time.perf_counter() - start)
+        if min(map(len, handed.values())) > batches:
+            break
+    usage = meter.usage()
+    collector.shutdown()
+    steps = config.algo.steps_per_update
+    rates = [batches * steps / (runs[batches][0] - runs[0][0]) for runs in handed.values()]
+    return {"actions": torch.stack([torch.stack([b["action"] for _, b in runs[1:batches + 1]])
+                                    for runs in handed.values()]),
+            "dps_per_worker": rates, "cpu": usage, "ms_update": 1e3 * sum(updates_s) / len(updates_s),
+            "policy_lag_max": max(int(b[POLICY_LAG].max()) for runs in handed.values() for _, b in runs),
+            "batches_handed": sum(map(len, handed.values()))}
+
+
+def gated_bound(seconds_1: list[list[float]], max_lag: int) -> float:
+    """``async_bound`` with the policy-lag gate: the 1-worker time of both workers' batches
+    over the time the gate (``gated_schedule``, updates taking no time) needs to hand out
+    all of them when the two workers run side by side."""
+    quota, handed = len(seconds_1[0]), [0] * len(seconds_1)
+    for worker, _, time_handed in gated_schedule(seconds_1, max_lag):
+        handed[worker] += 1
+        if min(handed) == quota:  # the last worker handed out its last batch
+            return sum(map(sum, seconds_1)) / time_handed
+
+
+def per_cpu_speedup(dps_1: float, cpu_1: list[float], dps_async: float, cpu_async: dict) -> float | None:
+    """What ``speedup_async`` would be if every process had got what it used at the rate it
+    used it: decisions per CPU-second (learner included) of the async run over those of the
+    1-worker run, times 2 cores. An upper estimate for a loaded machine, where the measured
+    ratio says more about the other jobs than about the code: it leaves out the time a
+    worker waits (no CPU used then). None without per-worker figures."""
+    if "worker_cpu_fraction" not in cpu_async:
+        return None
+    used_async = sum(cpu_async["worker_cpu_fraction"]) + cpu_async["main_cpu_fraction"]
+    return round(WORKERS * (dps_async / used_async) / (dps_1 / (sum(cpu_1) / len(cpu_1))), 3)
+
+
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
     batches = 1 if args.smoke else 2 if args.quick else 12
@@ -113,10 +188,15 @@ def main() -> None:
     torch.manual_seed(0)
     learner = Learner(config, make_env(config).action_spec)
     policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in both runs
-    actions_1, seconds_1 = one_worker(config, policy, batches)
+    actions_1, seconds_1, cpu_1 = one_worker(config, policy, batches)
     actions_2, seconds_2, usage, ms_update = two_workers(config, policy, learner, batches)
+    async_config = load_config(["scene=office", "slam=model", f"collector.workers={WORKERS}", "collector.kind=async",
+                                *overrides])
+    run_async = async_workers(async_config, policy, learner, batches)
+    dps_async = sum(run_async["dps_per_worker"])
     decisions = actions_2.numel()
     dps_1, dps_2 = decisions / sum(map(sum, seconds_1)), decisions / sum(seconds_2)
+    per_cpu = per_cpu_speedup(dps_1, cpu_1, dps_async, run_async["cpu"])
     sync_bound = sum(map(sum, seconds_1)) / sum(max(times) for times in zip(*seconds_1))
     async_bound = sum(map(sum, seconds_1)) / max(map(sum, seconds_1))
     update_fraction = ms_update / (ms_update + 1e3 * sum(seconds_2) / batches)
@@ -124,6 +204,8 @@ def main() -> None:
     print(f"2 workers: {decisions} decisions in {sum(seconds_2):.1f} s = {dps_2:.3f} /s; a synchronous "
           f"collector's bound {sync_bound:.2f}x; update {ms_update:.0f} ms per batch "
           f"({100 * update_fraction:.1f} % of an iteration)")
+    print(f"2 workers async: {dps_async:.3f} /s = {dps_async / dps_1:.2f}x one worker (bound {async_bound:.2f}x); "
+          f"largest policy lag {run_async['policy_lag_max']} (max_policy_lag {async_config.collector.policy_lag()})")
     emit({"benchmark": "collect", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
           "decisions": decisions, "batches_per_worker": batches, "steps_per_update": config.algo.steps_per_update,
           "same_actions": bool(torch.equal(actions_1, actions_2)),
@@ -131,7 +213,14 @@ def main() -> None:
           "s_per_batch_2": [round(t, 2) for t in seconds_2],
           "cpu_2": usage, "sync_bound": round(sync_bound, 3), "async_bound": round(async_bound, 3), "ms_update_per_batch": round(ms_update, 1),
           "update_fraction": round(update_fraction, 4),
-          "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3)})
+          "gated_bounds": {lag: round(gated_bound(seconds_1, lag), 3) for lag in (WORKERS, WORKERS + 1)},
+          "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3),
+          "same_actions_async": bool(torch.equal(actions_1, run_async["actions"])),
+          "dps_async_per_worker": [round(r, 3) for r in run_async["dps_per_worker"]], "cpu_async": run_async["cpu"],
+          "ms_update_async": round(run_async["ms_update"], 1), "batches_handed_async": run_async["batches_handed"],
+          "max_policy_lag": async_config.collector.policy_lag(), "policy_lag_max_async": run_async["policy_lag_max"],
+          "dps_async": round(dps_async, 3), "speedup_async": round(dps_async / dps_1, 3),
+          "cpu_1": cpu_1, "speedup_async_per_cpu": per_cpu})
 
 
 if __name__ == "__main__":

@@ -27,7 +27,6 @@ from explore_rl.scene.config import SceneConfig, validate_building
 from explore_rl.sensors.config import LidarConfig
 from explore_rl.slam.config import SlamConfig
 from explore_rl.trainer.config import (
-    BACKENDS,
     ESTIMATORS,
     DISTILL_TARGETS,
     LOGGERS,
@@ -295,7 +294,6 @@ def validate_training(config: Config) -> None:
     for key, value in at_least_one.items():
         if value < 1:
             raise ValueError(f"{key} must be >= 1, got {value}")
-    if collector.backend not in BACKENDS:
-        raise ValueError(f"collector.backend={collector.backend!r}: choose one of {', '.join(BACKENDS)}")
+    collector.validate()  # collector.backend, kind, max_policy_lag
     if config.logger.kind not in LOGGERS:
         raise ValueError(f"logger.kind={config.logger.kind!r}: choose one of {', '.join(LOGGERS)}")

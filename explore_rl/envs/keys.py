@@ -11,3 +11,8 @@ EXPERT = "expert"
 EM_ACTION = (EXPERT, "em_action")  # row of EM's choice, -1 when EM failed
 ACTION_REWARDS = (EXPERT, "action_rewards")  # (N,) Algorithm 1 reward of each frontier row, 0 elsewhere
 NEAREST_ACTION = (EXPERT, "nearest_action")  # row of the nearest frontier
+
+# the trainer's bookkeeping of a collected batch (explore_rl/trainer/async_collector.py): which
+# collector worker took the decisions, and the policy lag bound of its batch (in updates)
+WORKER = ("collector", "worker")
+POLICY_LAG = ("collector", "policy_lag")

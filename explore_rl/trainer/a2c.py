@@ -1,11 +1,12 @@
 """A2C on exploration graphs (paper Sec. III-B) with TorchRL collectors, losses and loggers.
 
 One iteration: every worker takes ``algo.steps_per_update`` decisions with the current
-policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``), the batch
-``[workers, T]`` gets its advantages from a TorchRL value estimator (GAE by default, per
-worker so trajectories never join), ``A2CLoss`` (weight ``algo.a2c_coef``) plus an
-optional *distillation* term (``algo.distill_coef``: EM's evaluation of every frontier of
-the same decisions; not A2C) gives one Adam step, optionally followed by
+policy (TorchRL ``Collector`` / ``MultiSyncCollector`` / ``RayCollector``; with
+``collector.kind=async``, one worker's batch as it arrives: explore_rl/trainer/async_collector.py),
+the batch ``[workers, T]`` (async: ``[1, T]``) gets its advantages from a TorchRL value
+estimator (GAE by default, per worker so trajectories never join), ``A2CLoss`` (weight
+``algo.a2c_coef``) plus an optional *distillation* term (``algo.distill_coef``: EM's
+evaluation of every frontier of the same decisions; not A2C) gives one Adam step, optionally followed by
 ``algo.dagger_steps`` distillation steps on EM-labelled decisions replayed from a buffer
 (DAgger, explore_rl/trainer/imitation.py), and the collectors receive the new weights.
 
@@ -42,12 +43,13 @@ from torchrl.objectives import A2CLoss, ValueEstimators
 
 from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env, policy_seed
-from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, WORKER
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_critic import make_actor, make_critic
 from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
 from explore_rl.models.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
                                            save_checkpoint)
+from explore_rl.trainer.async_collector import LagBoundedAsyncCollector
 from explore_rl.trainer.episodes import EpisodeTracker
 from explore_rl.trainer.imitation import DatasetLabels, compact_decisions, make_labels
 from explore_rl.trainer.logs import RunLogger
@@ -255,6 +257,9 @@ def make_collector(config: Config, actor, replays: list | None = None, start_fra
         from explore_rl.trainer.ray_backend import make_ray_collector  # ray is an optional extra
 
         return make_ray_collector(factories, actor, config.collector, **collector_kwargs(len(factories) * steps))
+    if config.collector.kind == "async":  # each worker's batch of `steps` decisions as it arrives
+        return LagBoundedAsyncCollector(factories, actor, max_policy_lag=config.collector.policy_lag(),
+                                        auto_register_policy_transforms=False, **collector_kwargs(steps))
     if len(factories) == 1:
         return local_collector(factories[0], actor, steps)
     return MultiSyncCollector(factories, actor, cat_results="stack", auto_register_policy_transforms=False,
@@ -265,7 +270,7 @@ def env_factories(config: Config, replays: list | None = None, start_frame: int 
     """One env factory per worker of ``collector.workers``.
 
     ``replays[i]``: the episode worker ``i`` resumes (``EnvFactory.replay``), or None.
-    Workers in other processes (``workers > 1``, Ray) seed their action sampling from
+    Workers in other processes (``workers > 1``, async, Ray) seed their action sampling from
     ``(seed, worker, start_frame)`` (:func:`policy_seed`), so a multi-worker run is
     reproducible; one local worker samples with this process's RNG (checkpointed, which
     makes its resume exact). TorchRL's ``set_seed`` of the multi collectors is not used:
@@ -274,7 +279,7 @@ def env_factories(config: Config, replays: list | None = None, start_frame: int 
     """
     workers = config.collector.workers
     replays = replays or [None] * workers
-    own_processes = workers > 1 or config.collector.backend == "ray"
+    own_processes = workers > 1 or config.collector.backend == "ray" or config.collector.kind == "async"
     return [EnvFactory(config, worker=i, replay=replays[i],
                        torch_seed=policy_seed(config.seed, i, start_frame) if own_processes else None)
             for i in range(workers)]
@@ -292,9 +297,13 @@ def local_collector(factory: EnvFactory, actor, steps: int) -> Collector:
 
 
 def as_workers_by_time(batch: TensorDictBase, workers: int) -> TensorDictBase:
-    """``[workers, T]`` whatever the collector returned (``[T]`` or ``[workers * T]``)."""
+    """``[rows, T]``, one worker's decisions per row, whatever the collector returned:
+    ``[workers, T]``, ``[T]`` of one worker, ``[workers * T]``, or an async batch ``[T]``
+    of the worker named in it (``WORKER``) as ``[1, T]``."""
     if batch.ndim == 2:
         return batch
+    if WORKER in batch.keys(include_nested=True):
+        return batch.unsqueeze(0)
     return batch.reshape(workers, -1)
 
 

@@ -18,6 +18,7 @@ RENAMED = {
 }
 RENAMED_VALUES = {"imitation_target": {"rewards": "expected_reward"}}
 BACKENDS = ("local", "ray")
+COLLECTOR_KINDS = ("sync", "async")
 LOGGERS = ("csv", "tensorboard")
 
 
@@ -61,11 +62,37 @@ class AlgoConfig:
 
 @dataclass
 class CollectorConfig:
-    """Where decisions are collected: ``workers`` env processes, locally or on Ray."""
+    """Where decisions are collected: ``workers`` env processes, locally or on Ray, and
+    whether each update waits for every worker (``sync``) or takes each worker's batch as
+    it arrives (``async``, local only; explore_rl/trainer/async_collector.py)."""
 
-    workers: int = 1  # 1: TorchRL Collector in this process; >1: MultiSyncCollector
+    workers: int = 1  # sync: 1 = TorchRL Collector in this process, >1 = MultiSyncCollector; async: spawned workers
     backend: str = "local"  # local | ray (TorchRL's RayCollector, `pip install explore_rl[ray]`)
     ray_address: Optional[str] = None  # "HEAD_IP:6379" on a cluster node, "ray://HEAD_IP:10001" from outside; None: local Ray
+    # sync: an update on every worker's batch at once, acted by the current weights (policy lag 0);
+    # async: an update on each worker's batch as it arrives (TorchRL's MultiAsyncCollector)
+    kind: str = "sync"
+    # async: the most updates between the weights that took a batch's oldest decision and the
+    # update on it; None = workers + 1. At least ``workers`` (each other worker's batch and the
+    # worker's own previous one may land in between)
+    max_policy_lag: Optional[int] = None
+
+    def policy_lag(self) -> int:
+        """The async collector's bound on the policy lag (see ``max_policy_lag``)."""
+        return self.workers + 1 if self.max_policy_lag is None else self.max_policy_lag
+
+    def validate(self) -> None:
+        """One-line ValueError naming the key for a bad backend, kind or lag bound."""
+        if self.backend not in BACKENDS:
+            raise ValueError(f"collector.backend={self.backend!r}: choose one of {', '.join(BACKENDS)}")
+        if self.kind not in COLLECTOR_KINDS:
+            raise ValueError(f"collector.kind={self.kind!r}: choose one of {', '.join(COLLECTOR_KINDS)}")
+        if self.kind == "async" and self.backend != "local":
+            raise ValueError(f"collector.kind=async runs local workers only: use collector.backend=local "
+                             f"or collector.kind=sync with collector.backend={self.backend}")
+        if self.kind == "async" and self.policy_lag() < self.workers:
+            raise ValueError(f"collector.max_policy_lag={self.max_policy_lag}: async collection with "
+                             f"{self.workers} workers needs >= {self.workers} (or null = workers + 1)")
 
 
 @dataclass

@@ -1,6 +1,7 @@
 """Per-worker episode bookkeeping of a training run.
 
-From the collected batches ``[workers, T]`` it keeps, per worker, the running episode
+From the collected batches ``[rows, T]`` (row ``r`` is worker ``r``'s, or, in an async
+batch, the worker its ``WORKER`` entry names) it keeps, per worker, the running episode
 (its index, the actions taken so far, reward and agreement with EM) and a summary of
 every finished one. The running episodes are what a resumed run replays
 (``EnvFactory.replay``); the summaries feed the logs and the "best" checkpoint.
@@ -13,7 +14,15 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from tensordict import TensorDictBase
 
-from explore_rl.envs.keys import EM_ACTION
+from explore_rl.envs.keys import EM_ACTION, WORKER
+
+
+def row_workers(batch: TensorDictBase) -> list[int]:
+    """The worker of each row of ``batch`` ``[rows, T]``: the one its ``WORKER`` entry names
+    (async batches), else the row's index."""
+    if WORKER in batch.keys(include_nested=True):
+        return [int(worker) for worker in batch[WORKER][:, 0]]
+    return list(range(batch.shape[0]))
 
 
 @dataclass
@@ -49,26 +58,26 @@ class EpisodeTracker:
         self.finished: list[EpisodeSummary] = []
 
     def add(self, batch: TensorDictBase) -> list[EpisodeSummary]:
-        """Account for a batch ``[workers, T]``; the episodes it finished."""
+        """Account for a batch ``[rows, T]`` (see the module docstring); the episodes it finished."""
         columns = {key: batch[key].numpy() for key in ("episode", "action", EM_ACTION)}
         nxt = {key: batch["next", key].reshape(batch.shape).numpy()
                for key in ("reward", "done", "terminated", "explored", "map_error", "travel",
                            "loop_closures", "failed")}
         finished = []
-        for w in range(batch.shape[0]):
+        for row, w in enumerate(row_workers(batch)):
             for t in range(batch.shape[1]):
-                episode = int(columns["episode"][w, t])
+                episode = int(columns["episode"][row, t])
                 current = self.running[w]
                 if current is None or current.episode != episode:
                     current = self.running[w] = RunningEpisode(episode)
-                action, label = int(columns["action"][w, t]), int(columns[EM_ACTION][w, t])
+                action, label = int(columns["action"][row, t]), int(columns[EM_ACTION][row, t])
                 current.actions.append(action)
-                current.reward += float(nxt["reward"][w, t])
+                current.reward += float(nxt["reward"][row, t])
                 if label >= 0:
                     current.labelled += 1
                     current.agree += action == label
-                if nxt["done"][w, t]:
-                    finished.append(self.summary(w, current, {k: v[w, t] for k, v in nxt.items()}))
+                if nxt["done"][row, t]:
+                    finished.append(self.summary(w, current, {k: v[row, t] for k, v in nxt.items()}))
                     self.running[w], self.next_episode[w] = None, episode + 1
         self.finished.extend(finished)
         return finished

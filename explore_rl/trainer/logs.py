@@ -16,7 +16,7 @@ from pathlib import Path
 from tensordict import TensorDictBase
 from tqdm import tqdm
 
-from explore_rl.envs.keys import EM_ACTION
+from explore_rl.envs.keys import EM_ACTION, POLICY_LAG
 from explore_rl.trainer.episodes import EpisodeSummary
 
 EXPERIMENT = "a2c"
@@ -70,6 +70,8 @@ class RunLogger:
         values = {"reward": reward, "em_agreement": agreement, "ms_update": ms_update,
                   "frames_per_s": frames / max(state.wall_s, 1e-9), "skipped_updates": state.skipped_updates,
                   "wall_s": state.wall_s, "updates": state.updates}
+        if POLICY_LAG in batch.keys(include_nested=True):  # async collection
+            values["policy_lag"] = int(batch[POLICY_LAG].max())
         if stats is not None:
             values.update(dataclasses.asdict(stats))
         self.scalars(frames, values)

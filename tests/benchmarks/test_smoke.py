@@ -18,8 +18,6 @@ SCRIPTS = [
     ("benchmarks/bench_building.py", [], ["ms_plan", "ms_compile", "ms_plan_compile", "office_ms_plan_compile",
                                           "plan_compile_ratio_vs_office", "ngeom_median", "lidar_ms_scan_building",
                                           "lidar_ms_scan_office"]),
-    ("benchmarks/bench_collect.py", [], ["same_actions", "sync_bound", "async_bound", "ms_update_per_batch",
-                                         "dps_1", "dps_2", "scaling"]),
     ("benchmarks/bench_decision.py", [], ["ms_em", "ms_nearest", "poses", "candidates", "growth", "ms_learned",
                                           "ms_learned_graph", "ms_learned_forward", "learned_actor",
                                           "ms_learned_reference", "em_over_learned", "same_choice"]),

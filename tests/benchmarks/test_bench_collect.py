@@ -1,0 +1,25 @@
+"""Smoke test of benchmarks/bench_collect.py: it runs (``--smoke``: 1 batch of 2 decisions
+per worker, tiny model) and its JSON last line holds the figures RESULTS.md quotes. Speeds
+are not checked; the same-work checks and the async policy-lag bound are."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.benchmarks.smoke import run_script
+
+KEYS = ["same_actions", "sync_bound", "async_bound", "ms_update_per_batch", "dps_1", "dps_2", "scaling",
+        "same_actions_async", "dps_async", "dps_async_per_worker", "speedup_async", "cpu_async",
+        "max_policy_lag", "policy_lag_max_async", "cpu_1", "speedup_async_per_cpu",
+        "gated_bounds"]
+
+
+def test_bench_collect_smoke(tmp_path: Path) -> None:
+    result = run_script("benchmarks/bench_collect.py", "--smoke", cwd=tmp_path, timeout=240)
+    assert result["smoke"] is True
+    missing = [key for key in KEYS if key not in result]
+    assert not missing, f"JSON last line lacks {missing} (has {sorted(result)})"
+    # the same decisions in the 1-worker, sync and async runs (per-worker seeds, fixed weights)
+    assert result["same_actions"] is True and result["same_actions_async"] is True
+    assert 0 <= result["policy_lag_max_async"] <= result["max_policy_lag"]
+    assert len(result["dps_async_per_worker"]) == 2 and result["speedup_async"] > 0
