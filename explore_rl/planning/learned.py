@@ -55,10 +55,10 @@ from explore_rl.models.actor_file import ActorFile, load_actor
 from explore_rl.planning.actions import Action, select_actions
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.em import Observations, pose_covariances
-from explore_rl.planning.em_fast import world_from_tangent
+from explore_rl.planning.em_fast import PLANAR, world_from_tangent
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.virtual_map import VirtualMap, fuse_in_order, measurement_noise
-from explore_rl.slam.marginals import DepthMarginals, information_from_jacobian
+from explore_rl.slam.marginals import BLOCK, DepthMarginals, information_from_jacobian, planar_blocks
 
 if TYPE_CHECKING:
     from explore_rl.slam.pose_graph import PoseGraph
@@ -275,10 +275,24 @@ def pose_marginals(graph: PoseGraph, poses: np.ndarray, backend: str) -> np.ndar
         try:  # the system of PoseGraph.information_matrix, in blocks
             linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
             information = information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
-            return world_from_tangent(DepthMarginals(information).diagonal_blocks(), poses)
+            return world_from_tangent(_tangent_marginals(information), poses)
         except (RuntimeError, ValueError, np.linalg.LinAlgError) as error:
             log.debug("depth-level marginals failed at %d poses (%s); EM's route instead", len(poses), error)
     return pose_covariances(graph, poses, backend)[0]
+
+
+def _tangent_marginals(information) -> np.ndarray:
+    """``(K, 6, 6)`` tangent marginals for :func:`world_from_tangent`, which reads only
+    their planar components (yaw, x, y): from the planar system alone when nothing joins
+    it to roll, pitch and z (planar poses and factors, as EM's fast backend checks), else
+    from the whole one. The off-plane blocks of the planar route are left zero."""
+    planar = planar_blocks(information, PLANAR)
+    if planar is None:
+        return DepthMarginals(information).diagonal_blocks()
+    rows = np.array(PLANAR)
+    covs = np.zeros((information.shape[0] // BLOCK, BLOCK, BLOCK))
+    covs[:, rows[:, None], rows] = DepthMarginals(planar, block=len(rows)).diagonal_blocks()
+    return covs
 
 
 def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:

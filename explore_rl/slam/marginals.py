@@ -293,16 +293,19 @@ class DepthMarginals(SparseMarginals):
     matrix is permuted block by block (one BSR conversion, no scalar fancy indexing):
     the same ordering and the same permuted matrix for SuperLU."""
 
-    def __init__(self, information: sp.spmatrix) -> None:
-        """``information``: any sparse ``H``; in 6x6 BSR (:func:`information_from_jacobian`) it is used as it is."""
+    def __init__(self, information: sp.spmatrix, block: int = BLOCK) -> None:
+        """``information``: any sparse ``H`` of ``block``-scalar variables; in
+        ``block x block`` BSR (:func:`information_from_jacobian`, :func:`planar_blocks`)
+        it is used as it is."""
         size = information.shape[0]
-        if information.shape != (size, size) or size % BLOCK:
-            raise ValueError(f"information matrix must be square 6N x 6N, got {information.shape}")
-        self.num_blocks = size // BLOCK
-        if information.format == "bsr" and information.blocksize == (BLOCK, BLOCK):
+        if information.shape != (size, size) or size % block:
+            raise ValueError(f"information matrix must be square {block}N x {block}N, got {information.shape}")
+        self.block = block
+        self.num_blocks = size // block
+        if information.format == "bsr" and information.blocksize == (block, block):
             blocks = information.copy()
         else:
-            blocks = sp.csr_matrix(information).tobsr(blocksize=(BLOCK, BLOCK))
+            blocks = sp.csr_matrix(information).tobsr(blocksize=(block, block))
         blocks.sort_indices()
         self.order = _chains_halved(_splu(_block_pattern(blocks), "MMD_AT_PLUS_A"))
         self.position = np.argsort(self.order)
@@ -313,17 +316,17 @@ class DepthMarginals(SparseMarginals):
         self._columns, self._diagonal, self._factor = {}, None, None
 
     def _block_factor(self) -> _Factor:
-        n = self.num_blocks
-        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(BLOCK, BLOCK))  # row c of L^T = column c of L
+        n, block = self.num_blocks, self.block
+        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(block, block))  # row c of L^T = column c of L
         by_column.sort_indices()
         indptr, indices = by_column.indptr, by_column.indices
-        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, BLOCK, BLOCK))])
+        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, block, block))])
         diag_ids = indptr[:-1]
         if not np.array_equal(indices[diag_ids], np.arange(n)):
             raise RuntimeError("factor without a full block diagonal")
         columns = _depth_columns(indptr, indices, n)
         levels = [_Level(c, *columns.of(c)) for c in columns.levels()]
-        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, BLOCK)
+        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, block)
         return _Factor(blocks, np.linalg.inv(blocks[diag_ids]), d_inv, diag_ids, levels)
 
 
@@ -388,7 +391,7 @@ def _depth_columns(indptr: np.ndarray, indices: np.ndarray, n: int) -> _Columns:
 def _block_pattern(blocks: sp.bsr_matrix) -> sp.csc_matrix:
     """The pose-level matrix :func:`block_ordering` orders: a one per stored block, ``N``
     on the diagonal."""
-    n = blocks.shape[0] // BLOCK
+    n = blocks.shape[0] // blocks.blocksize[0]
     pattern = sp.csr_matrix((np.ones(len(blocks.indices)), blocks.indices, blocks.indptr), shape=(n, n))
     return (pattern + sp.identity(n, format="csr") * n).tocsc()
 
@@ -417,6 +420,21 @@ def information_from_jacobian(rows: np.ndarray, cols: np.ndarray, values: np.nda
     jacobian = sp.csr_matrix((values[keep], (rows[keep], cols[keep])), shape=(height, size))
     jacobian = jacobian.tobsr(blocksize=(BLOCK, BLOCK))
     return (jacobian.T @ jacobian).tobsr(blocksize=(BLOCK, BLOCK))
+
+
+def planar_blocks(information: sp.bsr_matrix, planar: tuple[int, ...]) -> sp.bsr_matrix | None:
+    """The ``planar`` components of every 6x6 block of ``information`` (6x6 BSR) as a
+    ``len(planar)``-block BSR matrix, or None when some block joins a planar component to
+    another one (then the planar marginals need the whole system). When nothing joins
+    them, the planar part's inverse is the planar part of the inverse: the same marginals
+    from a system of half the size."""
+    others = [c for c in range(BLOCK) if c not in planar]
+    rows = information.data[:, list(planar)]
+    if np.any(rows[:, :, others]) or np.any(information.data[:, others][:, :, list(planar)]):
+        return None
+    data = np.ascontiguousarray(rows[:, :, list(planar)])
+    size = len(planar) * (information.shape[0] // BLOCK)
+    return sp.bsr_matrix((data, information.indices, information.indptr), shape=(size, size))
 
 
 def _chains_halved(pattern_lu: spla.SuperLU) -> np.ndarray:

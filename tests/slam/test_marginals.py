@@ -8,7 +8,8 @@ import scipy.sparse as sp
 
 from explore_rl.geometry import se2_between
 from explore_rl.slam.config import PoseGraphConfig
-from explore_rl.slam.marginals import DepthMarginals, SparseMarginals, information_from_jacobian
+from explore_rl.planning.em_fast import PLANAR
+from explore_rl.slam.marginals import DepthMarginals, SparseMarginals, information_from_jacobian, planar_blocks
 from explore_rl.slam.pose_graph import PoseGraph, key
 
 LOOP_COV = np.diag([1e-4] * 3 + [0.05**2] * 3)
@@ -172,3 +173,40 @@ def test_depth_marginals_of_a_random_sparse_system():
                                atol=1e-12)
     with pytest.raises(ValueError, match="6N x 6N"):
         DepthMarginals(sp.identity(7, format="csr"))
+
+
+@pytest.mark.parametrize("make", [looped_graph, corridor_graph])
+def test_planar_depth_marginals_equal_the_planar_part_of_the_whole_system(make):
+    """A planar pose graph joins no planar component (yaw, x, y) to roll, pitch or z, so
+    :func:`planar_blocks` gives its planar system, whose marginals (3x3 blocks) are the
+    planar part of the 6-dof marginals and of iSAM2's own queries."""
+    graph = make()
+    linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
+    blocks = information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
+    planar = planar_blocks(blocks, PLANAR)
+    assert planar is not None and planar.blocksize == (3, 3) and planar.shape == (3 * graph.num_poses,) * 2
+    whole = DepthMarginals(blocks).diagonal_blocks()[:, 2:5, 2:5]
+    np.testing.assert_allclose(*scaled(DepthMarginals(planar, block=3).diagonal_blocks(), whole), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(*scaled(DepthMarginals(planar, block=3).diagonal_blocks(),
+                                       isam_marginals(graph)[:, 2:5, 2:5]), rtol=0, atol=1e-8)
+
+
+def test_planar_blocks_refuses_a_coupled_system_and_3_blocks_match_a_dense_inverse():
+    """A block that joins x to z makes the planar part not closed (None); a random SPD
+    system of 3x3 blocks gives the dense inverse's diagonal blocks."""
+    rng = np.random.default_rng(7)
+    n = 12
+    dense = np.eye(6 * n)
+    for i in range(n - 1):
+        a = rng.normal(size=(12, 12))
+        idx = np.r_[6 * i: 6 * i + 6, 6 * i + 6: 6 * i + 12]
+        dense[np.ix_(idx, idx)] += a @ a.T  # joins every component of neighbours
+    assert planar_blocks(sp.csr_matrix(dense).tobsr(blocksize=(6, 6)), PLANAR) is None
+    keep = np.ravel([[6 * i + c for c in PLANAR] for i in range(n)])
+    small = dense[np.ix_(keep, keep)]
+    inverse = np.linalg.inv(small)
+    expected = np.stack([inverse[3 * i: 3 * i + 3, 3 * i: 3 * i + 3] for i in range(n)])
+    np.testing.assert_allclose(DepthMarginals(sp.csr_matrix(small), block=3).diagonal_blocks(), expected,
+                               rtol=1e-9, atol=1e-12)
+    with pytest.raises(ValueError, match="3N x 3N"):
+        DepthMarginals(sp.identity(7, format="csr"), block=3)
