@@ -179,7 +179,8 @@ def per_cpu_speedup(dps_1: float, cpu_1: list[float], dps_async: float, cpu_asyn
 
 
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+    args = parse_args(__doc__.splitlines()[0],
+                      quick_help="2 batches per worker in each of the three modes (~75 s: each mode spawns its workers)")
     batches = 1 if args.smoke else 2 if args.quick else 12
     overrides = ["algo.steps_per_update=2", "planning.actions.max_frontiers=2", "model.hidden=16",
                  "model.mlp_hidden=16"] if args.smoke else []

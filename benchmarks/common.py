@@ -10,9 +10,9 @@ import time
 from typing import Any, Callable
 
 
-def parse_args(description: str) -> argparse.Namespace:
+def parse_args(description: str, quick_help: str = "a run that finishes in under a minute") -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("--quick", action="store_true", help="a run that finishes in under a minute")
+    parser.add_argument("--quick", action="store_true", help=quick_help)
     parser.add_argument("--smoke", action="store_true",
                         help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
     return parser.parse_args()
