@@ -58,6 +58,36 @@ def scalar_indices(blocks: np.ndarray, block: int = BLOCK) -> np.ndarray:
     return (block * np.asarray(blocks)[:, None] + np.arange(block)).ravel()
 
 
+def _num_blocks(information: sp.spmatrix, block: int) -> int:
+    """``N`` of a square ``bN x bN`` system (else a one-line error)."""
+    size = information.shape[0]
+    if information.shape != (size, size) or size % block:
+        raise ValueError(f"information matrix must be square {block}N x {block}N, got {information.shape}")
+    return size // block
+
+
+def _unpivoted(lu: spla.SuperLU) -> spla.SuperLU:
+    """``lu``, checked to keep the given order (the block marginals are read in it)."""
+    identity = np.arange(lu.shape[0])
+    if not (np.array_equal(lu.perm_c, identity) and np.array_equal(lu.perm_r, identity)):
+        raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
+    return lu
+
+
+def _factor_by_column(lu: spla.SuperLU, n: int, block: int) -> tuple[np.ndarray, ...]:
+    """The block factor column by column: ``indptr``, ``indices`` (rows ascending, the
+    diagonal first), the stored blocks (block ``k`` = ``L[indices[k], column of k]^T``, a
+    zero block appended for padding; Z shares the ids), the diagonal ids and ``D^-1``."""
+    by_column = lu.L.T.tocsr().tobsr(blocksize=(block, block))  # row c of L^T = column c of L
+    by_column.sort_indices()
+    indptr, indices = by_column.indptr, by_column.indices
+    blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, block, block))])
+    diag_ids = indptr[:-1]  # first stored block of each column is its diagonal
+    if not np.array_equal(indices[diag_ids], np.arange(n)):
+        raise RuntimeError("factor without a full block diagonal")
+    return indptr, indices, blocks, diag_ids, 1.0 / lu.U.diagonal().reshape(n, block)
+
+
 @dataclass
 class _Level:
     """The block columns of one level of the elimination tree, padded to one width."""
@@ -103,23 +133,14 @@ class SparseMarginals:
     pose order). Factorised once at construction.
     """
 
-    block = BLOCK  # scalars per variable (set per instance at construction)
-
     def __init__(self, information: sp.spmatrix, block: int = BLOCK) -> None:
         information = sp.csr_matrix(information)
-        size = information.shape[0]
-        self.block = block
-        if information.shape != (size, size) or size % block:
-            raise ValueError(f"information matrix must be square {block}N x {block}N, got {information.shape}")
-        self.num_blocks = size // block
+        self.block, self.num_blocks = block, _num_blocks(information, block)
         self.order = block_ordering(information, self.num_blocks)  # factor position -> pose
         self.position = np.argsort(self.order)  # pose -> factor position
         scalar = scalar_indices(self.order, block)
         permuted = information[scalar][:, scalar].tobsr(blocksize=(block, block)).tocsc()
-        self.lu = _splu(permuted, "NATURAL", relax=block)
-        identity = np.arange(size)
-        if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
-            raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
+        self.lu = _unpivoted(_splu(permuted, "NATURAL", relax=block))
         self._columns: dict[tuple, np.ndarray] = {}  # (pose, components) -> (6N, c)
         self._diagonal: np.ndarray | None = None
         self._factor: _Factor | None = None
@@ -207,19 +228,10 @@ class SparseMarginals:
 
     def _block_factor(self) -> _Factor:
         n = self.num_blocks
-        block = self.block
-        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(block, block))  # row c of L^T = column c of L
-        by_column.sort_indices()
-        indptr, indices = by_column.indptr, by_column.indices
-        # stored block k = L[indices[k], column of k]^T (row block of L^T); Z shares the ids
-        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, block, block))])
+        indptr, indices, blocks, diag_ids, d_inv = _factor_by_column(self.lu, n, self.block)
         zero_id = len(indices)
         column_of = np.repeat(np.arange(n), np.diff(indptr))
         keys = column_of.astype(np.int64) * n + indices  # sorted: column-major, rows ascending
-        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, block)
-        diag_ids = indptr[:-1]  # first stored block of each column is its diagonal
-        if not np.array_equal(indices[diag_ids], np.arange(n)):
-            raise RuntimeError("factor without a full block diagonal")
         parent = np.full(n, -1)
         has_below = np.diff(indptr) > 1
         parent[has_below] = indices[diag_ids[has_below] + 1]
@@ -297,11 +309,7 @@ class DepthMarginals(SparseMarginals):
         """``information``: any sparse ``H`` of ``block``-scalar variables; in
         ``block x block`` BSR (:func:`information_from_jacobian`, :func:`planar_blocks`)
         it is used as it is."""
-        size = information.shape[0]
-        if information.shape != (size, size) or size % block:
-            raise ValueError(f"information matrix must be square {block}N x {block}N, got {information.shape}")
-        self.block = block
-        self.num_blocks = size // block
+        self.block, self.num_blocks = block, _num_blocks(information, block)
         if information.format == "bsr" and information.blocksize == (block, block):
             blocks = information.copy()
         else:
@@ -309,24 +317,14 @@ class DepthMarginals(SparseMarginals):
         blocks.sort_indices()
         self.order = _chains_halved(_splu(_block_pattern(blocks), "MMD_AT_PLUS_A"))
         self.position = np.argsort(self.order)
-        self.lu = _splu(_permuted_blocks(blocks, self.position), "NATURAL")
-        identity = np.arange(size)
-        if not (np.array_equal(self.lu.perm_c, identity) and np.array_equal(self.lu.perm_r, identity)):
-            raise RuntimeError("SuperLU reordered the block-permuted system; cannot read block marginals")
+        self.lu = _unpivoted(_splu(_permuted_blocks(blocks, self.position), "NATURAL"))
         self._columns, self._diagonal, self._factor = {}, None, None
 
     def _block_factor(self) -> _Factor:
-        n, block = self.num_blocks, self.block
-        by_column = self.lu.L.T.tocsr().tobsr(blocksize=(block, block))  # row c of L^T = column c of L
-        by_column.sort_indices()
-        indptr, indices = by_column.indptr, by_column.indices
-        blocks = np.concatenate([np.swapaxes(by_column.data, 1, 2), np.zeros((1, block, block))])
-        diag_ids = indptr[:-1]
-        if not np.array_equal(indices[diag_ids], np.arange(n)):
-            raise RuntimeError("factor without a full block diagonal")
+        n = self.num_blocks
+        indptr, indices, blocks, diag_ids, d_inv = _factor_by_column(self.lu, n, self.block)
         columns = _depth_columns(indptr, indices, n)
         levels = [_Level(c, *columns.of(c)) for c in columns.levels()]
-        d_inv = 1.0 / self.lu.U.diagonal().reshape(n, block)
         return _Factor(blocks, np.linalg.inv(blocks[diag_ids]), d_inv, diag_ids, levels)
 
 
