@@ -18,7 +18,7 @@ same episodes (``same_actions`` checks it):
 ``dps_1``, ``dps_2`` are decisions/s over the timed batches, ``scaling`` their ratio.
 ``dps_async``: each worker's timed decisions over its own window (from its warm-up batch
 handed out to its last timed batch handed out; waits at the policy-lag gate included),
-summed over the two workers running side by side; ``speedup_async`` = ``dps_async / dps_1``.
+summed over the two workers running side by side; a round's speedup is ``dps_async / dps_1``.
 ``sync_bound``: the scaling a synchronous collector could reach on this work if two
 workers ran as fast as one, from the 1-worker per-batch times (each batch waits for the
 slower worker); ``async_bound``: the same if no worker ever waited for the other (an
@@ -32,7 +32,14 @@ oversubscribing the cores). The learner's
 update (timed on each 2-worker batch, its weights not sent to the collectors so that the
 work stays the same) shows the collection/update split.
 
-    python benchmarks/bench_collect.py [--quick | --smoke]
+**Paired rounds** (``--rounds``, 4 by default): the 1-worker and the async run are repeated,
+the same work each time, in alternating order (1-worker first in even rounds, async first
+in odd ones), so that the host's drift over minutes (the same 1-worker work took 123 s and
+139 s in two quiet runs ten minutes apart) falls on both sides of each round's ratio.
+``speedup_async`` is the mean of the rounds' ratios, ``speedup_async_ci95`` its 95 %
+Student-t interval over rounds; the sync run and the per-batch figures are round 0's.
+
+    python benchmarks/bench_collect.py [--quick | --smoke] [--rounds N]
 """
 
 from __future__ import annotations
@@ -44,7 +51,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine, parse_args  # noqa: E402
+from common import emit, machine, mean_ci95, parse_args  # noqa: E402
 
 import torch  # noqa: E402
 
@@ -178,25 +185,52 @@ def per_cpu_speedup(dps_1: float, cpu_1: list[float], dps_async: float, cpu_asyn
     return round(WORKERS * (dps_async / used_async) / (dps_1 / (sum(cpu_1) / len(cpu_1))), 3)
 
 
+def one_round(config, async_config, policy, learner: Learner, batches: int, async_first: bool) -> dict:
+    """The 1-worker run and the async run on the same work, in the order asked for; their
+    decisions/s and ratio."""
+    runs = {}
+    for mode in (["async", "one"] if async_first else ["one", "async"]):
+        runs[mode] = (async_workers(async_config, policy, learner, batches) if mode == "async"
+                      else one_worker(config, policy, batches))
+    actions_1, seconds_1, cpu_1 = runs["one"]
+    dps_1 = actions_1.numel() / sum(map(sum, seconds_1))
+    dps_async = sum(runs["async"]["dps_per_worker"])
+    return {"actions_1": actions_1, "seconds_1": seconds_1, "cpu_1": cpu_1, "async": runs["async"],
+            "dps_1": dps_1, "dps_async": dps_async, "speedup_async": dps_async / dps_1,
+            "same_actions_async": bool(torch.equal(actions_1, runs["async"]["actions"]))}
+
+
+def add_rounds(parser) -> None:
+    parser.add_argument("--rounds", type=int, default=None, metavar="N",
+                        help="paired 1-worker/async rounds (default 4; 1 with --quick or --smoke)")
+
+
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0],
-                      quick_help="2 batches per worker in each of the three modes (~75 s: each mode spawns its workers)")
+    args = parse_args(__doc__.splitlines()[0], add_arguments=add_rounds,
+                      quick_help="1 round of 2 batches per worker in each of the three modes (~75 s: each mode spawns its workers)")
     batches = 1 if args.smoke else 2 if args.quick else 12
+    rounds = args.rounds if args.rounds is not None else 1 if args.quick or args.smoke else 4
+    if rounds < 1:
+        raise SystemExit(f"--rounds must be at least 1 (got {rounds}): give --rounds 1 or more")
     overrides = ["algo.steps_per_update=2", "planning.actions.max_frontiers=2", "model.hidden=16",
                  "model.mlp_hidden=16"] if args.smoke else []
     config = load_config(["scene=office", "slam=model", f"collector.workers={WORKERS}", *overrides])
+    async_config = load_config(["scene=office", "slam=model", f"collector.workers={WORKERS}", "collector.kind=async",
+                                *overrides])
     torch.set_num_threads(config.train.threads)  # as the trainer (TrainingRun) does
     torch.manual_seed(0)
     learner = Learner(config, make_env(config).action_spec)
-    policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in both runs
-    actions_1, seconds_1, cpu_1 = one_worker(config, policy, batches)
+    policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in every run
+    first = one_round(config, async_config, policy, learner, batches, async_first=False)
     actions_2, seconds_2, usage, ms_update = two_workers(config, policy, learner, batches)
-    async_config = load_config(["scene=office", "slam=model", f"collector.workers={WORKERS}", "collector.kind=async",
-                                *overrides])
-    run_async = async_workers(async_config, policy, learner, batches)
-    dps_async = sum(run_async["dps_per_worker"])
+    later = [one_round(config, async_config, policy, learner, batches, async_first=r % 2 == 1)
+             for r in range(1, rounds)]
+    paired = [first, *later]
+    speedup_async, speedup_ci = mean_ci95([r["speedup_async"] for r in paired])
+    actions_1, seconds_1, cpu_1, run_async = first["actions_1"], first["seconds_1"], first["cpu_1"], first["async"]
+    dps_1, dps_async = first["dps_1"], first["dps_async"]
     decisions = actions_2.numel()
-    dps_1, dps_2 = decisions / sum(map(sum, seconds_1)), decisions / sum(seconds_2)
+    dps_2 = decisions / sum(seconds_2)
     per_cpu = per_cpu_speedup(dps_1, cpu_1, dps_async, run_async["cpu"])
     sync_bound = sum(map(sum, seconds_1)) / sum(max(times) for times in zip(*seconds_1))
     async_bound = sum(map(sum, seconds_1)) / max(map(sum, seconds_1))
@@ -207,6 +241,11 @@ def main() -> None:
           f"({100 * update_fraction:.1f} % of an iteration)")
     print(f"2 workers async: {dps_async:.3f} /s = {dps_async / dps_1:.2f}x one worker (bound {async_bound:.2f}x); "
           f"largest policy lag {run_async['policy_lag_max']} (max_policy_lag {async_config.collector.policy_lag()})")
+    for r, result in enumerate(paired):
+        print(f"round {r} ({'async' if r % 2 else '1 worker'} first): 1 worker {result['dps_1']:.3f} /s, "
+              f"async {result['dps_async']:.3f} /s = {result['speedup_async']:.3f}x")
+    interval = "" if speedup_ci is None else f", 95 % CI [{speedup_ci[0]:.3f}, {speedup_ci[1]:.3f}]"
+    print(f"async over 1 worker, mean of {rounds} paired rounds: {speedup_async:.3f}x{interval}")
     emit({"benchmark": "collect", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
           "decisions": decisions, "batches_per_worker": batches, "steps_per_update": config.algo.steps_per_update,
           "same_actions": bool(torch.equal(actions_1, actions_2)),
@@ -216,11 +255,17 @@ def main() -> None:
           "update_fraction": round(update_fraction, 4),
           "gated_bounds": {lag: round(gated_bound(seconds_1, lag), 3) for lag in (WORKERS, WORKERS + 1)},
           "dps_1": round(dps_1, 3), "dps_2": round(dps_2, 3), "scaling": round(dps_2 / dps_1, 3),
-          "same_actions_async": bool(torch.equal(actions_1, run_async["actions"])),
+          "same_actions_async": all(r["same_actions_async"] for r in paired),
           "dps_async_per_worker": [round(r, 3) for r in run_async["dps_per_worker"]], "cpu_async": run_async["cpu"],
           "ms_update_async": round(run_async["ms_update"], 1), "batches_handed_async": run_async["batches_handed"],
-          "max_policy_lag": async_config.collector.policy_lag(), "policy_lag_max_async": run_async["policy_lag_max"],
-          "dps_async": round(dps_async, 3), "speedup_async": round(dps_async / dps_1, 3),
+          "max_policy_lag": async_config.collector.policy_lag(),
+          "policy_lag_max_async": max(r["async"]["policy_lag_max"] for r in paired),
+          "dps_async": round(dps_async, 3), "rounds": rounds,
+          "dps_1_rounds": [round(r["dps_1"], 3) for r in paired],
+          "dps_async_rounds": [round(r["dps_async"], 3) for r in paired],
+          "speedup_async_rounds": [round(r["speedup_async"], 3) for r in paired],
+          "speedup_async": round(speedup_async, 3),
+          "speedup_async_ci95": None if speedup_ci is None else [round(v, 3) for v in speedup_ci],
           "cpu_1": cpu_1, "speedup_async_per_cpu": per_cpu})
 
 

@@ -9,13 +9,29 @@ import platform
 import time
 from typing import Any, Callable
 
+import numpy as np
+from scipy import stats
 
-def parse_args(description: str, quick_help: str = "a run that finishes in under a minute") -> argparse.Namespace:
+
+def parse_args(description: str, quick_help: str = "a run that finishes in under a minute",
+               add_arguments: Callable[[argparse.ArgumentParser], None] | None = None) -> argparse.Namespace:
+    """``--quick`` and ``--smoke``, and what ``add_arguments`` adds for one benchmark."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--quick", action="store_true", help=quick_help)
     parser.add_argument("--smoke", action="store_true",
                         help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
+    if add_arguments is not None:
+        add_arguments(parser)
     return parser.parse_args()
+
+
+def mean_ci95(values: list[float]) -> tuple[float, list[float] | None]:
+    """The mean of ``values`` and its 95 % Student-t interval (None for fewer than 2 values)."""
+    mean = float(np.mean(values))
+    if len(values) < 2:
+        return mean, None
+    half = float(stats.t.ppf(0.975, len(values) - 1) * np.std(values, ddof=1) / np.sqrt(len(values)))
+    return mean, [mean - half, mean + half]
 
 
 def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:
