@@ -25,6 +25,7 @@ from explore_rl.planning.revisits import (
     predict_revisits_of_paths,
     predict_revisits_reference,
     sample_path,
+    sample_paths,
 )
 
 if TYPE_CHECKING:
@@ -64,13 +65,14 @@ def predict_path(path_xy: np.ndarray, keyframe_xy: np.ndarray, keyframe_travel: 
 
 
 def predict_candidate_paths(state: ExplorationState, revisits: RevisitConfig) -> list[PathPrediction]:
-    """:func:`predict_path` for every candidate of ``state``, all at once
-    (:func:`~explore_rl.planning.revisits.predict_revisits_of_paths`: one KD-tree query,
+    """:func:`predict_path` for every candidate of ``state``, all at once (their paths
+    sampled by :func:`~explore_rl.planning.revisits.sample_paths`, their revisits by
+    :func:`~explore_rl.planning.revisits.predict_revisits_of_paths`: one KD-tree query,
     the paths' shared segments tested once; the same answers as one path at a time,
     :func:`predict_candidate_paths_reference`)."""
     session = state.session
     keyframe_xy, keyframe_travel, blocked, spacing = _keyframe_inputs(state)
-    samples = [sample_path(c.path, spacing) for c in state.candidates]
+    samples = sample_paths([c.path for c in state.candidates], spacing)
     found = predict_revisits_of_paths([poses[:, :2] for poses, _ in samples], keyframe_xy, keyframe_travel,
                                       float(state.travel), blocked, session.occupancy.grid, revisits,
                                       [travel for _, travel in samples])

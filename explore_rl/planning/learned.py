@@ -36,6 +36,7 @@ import time
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 import torch
 from scipy.spatial import cKDTree
 
@@ -128,10 +129,15 @@ def pairs_in_range(pose_xy: np.ndarray, landmark_xy: np.ndarray, radius: float) 
     near = cKDTree(pose_xy).sparse_distance_matrix(cKDTree(landmark_xy), radius * (1 + KD_MARGIN) + KD_MARGIN,
                                                    output_type="ndarray")
     pose_idx, slot = near["i"].astype(np.int64), near["j"].astype(np.int64)
-    keep = np.linalg.norm(landmark_xy[slot] - pose_xy[pose_idx], axis=-1) <= radius
-    pose_idx, slot = pose_idx[keep], slot[keep]
-    order = np.lexsort((slot, pose_idx))
-    return pose_idx[order], slot[order]
+    offset = landmark_xy[slot] - pose_xy[pose_idx]
+    dx, dy = offset[:, 0], offset[:, 1]
+    keep = np.sqrt(dx * dx + dy * dy) <= radius  # np.linalg.norm's sum of squares, without its reduction
+    # pose-major, then landmark order: the pairs as a sparse pattern, its rows' columns sorted
+    # (a counting sort by pose and short per-row sorts: half a lexsort of the pairs)
+    pairs = sp.csr_matrix((np.ones(int(keep.sum()), dtype=bool), (pose_idx[keep], slot[keep])),
+                          shape=(len(pose_xy), len(landmark_xy)))
+    pairs.sort_indices()
+    return np.repeat(np.arange(len(pose_xy), dtype=np.int64), np.diff(pairs.indptr)), pairs.indices.astype(np.int64)
 
 
 def pairs_in_range_reference(pose_xy: np.ndarray, landmark_xy: np.ndarray,

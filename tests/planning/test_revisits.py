@@ -18,6 +18,7 @@ from explore_rl.planning.revisits import (
     predict_revisits_reference,
     sample_path,
     sample_path_poses,
+    sample_paths,
 )
 
 CFG = RevisitConfig(r_lc=1.0, min_travel_gap=3.0, merge_keyframe_gap=4)
@@ -150,6 +151,32 @@ def test_sample_path_degenerate():
     )
     poses = sample_path_poses(np.array([[0.0, 0.0], [0.0, -1.0]]), 0.5)
     np.testing.assert_allclose(poses, [[0, -0.5, -np.pi / 2], [0, -1.0, -np.pi / 2]])
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_paths_sampled_at_once_equal_each_path_alone(seed):
+    """:func:`sample_paths` gives every path what :func:`sample_path` gives it alone, the
+    same floats: lattice paths (arc lengths at exact multiples of the spacing, repeated
+    points), off-lattice ones, single points, empty paths and the unsampled first call."""
+    rng = np.random.default_rng(seed)
+    assert sample_paths([], 0.5) == []
+    for _ in range(200):
+        paths = []
+        for _ in range(rng.integers(1, 7)):
+            n = int(rng.integers(0, 9))
+            path = rng.uniform(0, 3, (n, 2))
+            if rng.random() < 0.5:
+                path = np.round(path * 2) / 2
+            if n > 2 and rng.random() < 0.4:
+                path[1] = path[0]
+            paths.append(path)
+        spacing = float(rng.choice([0.25, 0.3, 0.5]))
+        together = sample_paths(paths, spacing)
+        assert len(together) == len(paths)
+        for path, (poses, travel) in zip(paths, together):
+            alone_poses, alone_travel = sample_path(path, spacing)
+            assert poses.shape == alone_poses.shape and travel.shape == alone_travel.shape
+            assert np.array_equal(poses, alone_poses) and np.array_equal(travel, alone_travel)
 
 
 @pytest.mark.parametrize("seed", [7, 8, 9])

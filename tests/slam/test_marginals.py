@@ -9,7 +9,13 @@ import scipy.sparse as sp
 from explore_rl.geometry import se2_between
 from explore_rl.slam.config import PoseGraphConfig
 from explore_rl.planning.em_fast import PLANAR
-from explore_rl.slam.marginals import DepthMarginals, SparseMarginals, information_from_jacobian, planar_blocks
+from explore_rl.slam.marginals import (
+    DepthMarginals,
+    SparseMarginals,
+    information_from_jacobian,
+    planar_blocks,
+    unit_lower_inverse,
+)
 from explore_rl.slam.pose_graph import PoseGraph, key
 
 LOOP_COV = np.diag([1e-4] * 3 + [0.05**2] * 3)
@@ -173,6 +179,16 @@ def test_depth_marginals_of_a_random_sparse_system():
                                atol=1e-12)
     with pytest.raises(ValueError, match="6N x 6N"):
         DepthMarginals(sp.identity(7, format="csr"))
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 6])
+def test_unit_lower_inverse_inverts_every_block(size):
+    """The diagonal blocks' inverses (Horner on the nilpotent part) against ``np.linalg.inv``."""
+    rng = np.random.default_rng(size)
+    blocks = np.tril(rng.normal(size=(50, size, size)), -1) + np.eye(size)
+    inverse = unit_lower_inverse(blocks)
+    np.testing.assert_allclose(inverse, np.linalg.inv(blocks), rtol=0, atol=1e-11)
+    np.testing.assert_allclose(blocks @ inverse, np.broadcast_to(np.eye(size), blocks.shape), rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("make", [looped_graph, corridor_graph])
