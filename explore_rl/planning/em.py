@@ -54,6 +54,7 @@ from explore_rl.planning.revisits import Revisit
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     fuse_in_order,
+    lever_and_noise,
     measurement_noise,
     range_bearing_jacobians,
 )
@@ -234,6 +235,19 @@ class Observations:
         noise = h_l_inv @ measurement_noise(vmap.config) @ np.swapaxes(h_l_inv, 1, 2)
         return cls(pose_idx, landmark_idx, h_l_inv @ h_x, noise)
 
+    @classmethod
+    def closed_form(cls, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray,
+                    landmark_idx: np.ndarray) -> Observations:
+        """:meth:`of_pairs` in closed form (``virtual_map.lever_and_noise``; equal to
+        round-off): gains exactly ``[-I | lever]``, which the fast backend's fusion
+        (:func:`~explore_rl.planning.em_fast.lever_terms`) relies on."""
+        lever, noise = lever_and_noise(poses[pose_idx], vmap.landmark_xy[landmark_idx], vmap.config)
+        gain = np.zeros((len(pose_idx), 2, 3))
+        gain[:, 0, 0] = gain[:, 1, 1] = -1.0
+        gain[:, :, 2] = lever
+        n00, n01, n11 = noise
+        return cls(pose_idx, landmark_idx, gain, np.stack([np.stack([n00, n01], -1), np.stack([n01, n11], -1)], -2))
+
     def subset(self, rows: np.ndarray) -> Observations:
         """The observations selected by ``rows`` (a mask or indices), order kept."""
         return Observations(self.pose_idx[rows], self.landmark_idx[rows], self.gain[rows], self.noise[rows])
@@ -344,7 +358,7 @@ class ObservationCache:
     def jacobians(self, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray, landmark_idx: np.ndarray,
                   keep: np.ndarray) -> Observations:
         """The observations of the pairs: Jacobians copied for the unmoved keyframes'
-        previously visible pairs, computed (:meth:`Observations.of_pairs`) for the rest."""
+        previously visible pairs, computed (:meth:`Observations.closed_form`) for the rest."""
         gain = np.empty((len(pose_idx), 2, 3))
         noise = np.empty((len(pose_idx), 2, 2))
         copied = keep[pose_idx]
@@ -358,7 +372,7 @@ class ObservationCache:
             rows = np.flatnonzero(copied)
             gain[rows[hit]], noise[rows[hit]] = old.gain[found[hit]], old.noise[found[hit]]
             copied[rows[~hit]] = False
-        computed = Observations.of_pairs(vmap, poses, pose_idx[~copied], landmark_idx[~copied])
+        computed = Observations.closed_form(vmap, poses, pose_idx[~copied], landmark_idx[~copied])
         gain[~copied], noise[~copied] = computed.gain, computed.noise
         return Observations(pose_idx, landmark_idx, gain, noise)
 
@@ -398,9 +412,8 @@ def fused_map(fast: FastContext, observations: Observations, pose_covs: np.ndarr
     decision's fusion rounds: :meth:`Observations.fuse` for all sets in one pass)."""
     maps = np.repeat(prior[None], len(pose_covs), axis=0)
     if len(observations.pose_idx):
-        rounds = fast.rounds_of(observations.landmark_idx)
-        maps[:, rounds.landmarks] = fuse_batched(rounds, observations.pose_idx, observations.gain,
-                                                 observations.noise, pose_covs, prior[rounds.landmarks])
+        rounds = fast.rounds_of(observations)
+        maps[:, rounds.landmarks] = fuse_batched(rounds, pose_covs, prior[rounds.landmarks])
     return maps
 
 
@@ -471,8 +484,11 @@ def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: st
     blocked = session.occupancy.known_occupied
     poses = graph.poses_se2()
     pose_covs, fast = pose_covariances(graph, poses, backend)
-    observations = (Observations.of(vmap, poses, blocked) if cache is None
-                    else cache.observations_of(vmap, poses, blocked))
+    if cache is not None:
+        observations = cache.observations_of(vmap, poses, blocked)
+    else:  # the fast fusion reads the closed form's exact [-I | lever] gains
+        observe = Observations.of_pairs if fast is None else Observations.closed_form
+        observations = observe(vmap, poses, *vmap.visible_pairs(poses, blocked))
     landmark_covs = (observations.fuse(vmap.prior_covariances(), pose_covs) if fast is None
                      else fused_map(fast, observations, pose_covs[None], vmap.prior_covariances())[0])
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
@@ -623,7 +639,7 @@ class EMPlanner:
         poses = np.concatenate([p.poses for p in predicted])
         pose_idx = np.concatenate([pairs[0] + offset for pairs, offset in zip(visible, offsets)])
         landmark_idx = np.concatenate([pairs[1] for pairs in visible])
-        everything = Observations.of_pairs(context.vmap, poses, pose_idx, landmark_idx)
+        everything = Observations.closed_form(context.vmap, poses, pose_idx, landmark_idx)
         bounds = np.cumsum([len(pairs[0]) for pairs in visible])[:-1]
         return [Observations(pairs[0], *parts) for pairs, *parts in zip(
             visible, np.split(everything.landmark_idx, bounds), np.split(everything.gain, bounds),

@@ -55,12 +55,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from explore_rl.planning.config import EMConfig
-from explore_rl.planning.virtual_map import ci_weight
 from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 
 if TYPE_CHECKING:
-    from explore_rl.planning.em import DecisionContext, PredictedPath
+    from explore_rl.planning.em import DecisionContext, Observations, PredictedPath
     from explore_rl.planning.virtual_map import VirtualMap
 
 # Rows/columns (yaw, x, y) of gtsam's Pose3 tangent order (rx, ry, rz, tx, ty, tz): the
@@ -166,10 +165,10 @@ class FastContext:
             return columns[:, [PLANAR.index(r) for r in rows]]
         return self.marginals.columns(poses, dims).reshape(n, BLOCK, k, len(dims))[:, rows]
 
-    def rounds_of(self, landmark_idx: np.ndarray) -> FuseRounds:
+    def rounds_of(self, observations: Observations) -> FuseRounds:
         """The fusion rounds of the current observations (built once per decision)."""
         if self.rounds is None:
-            self.rounds = FuseRounds.of(landmark_idx)
+            self.rounds = FuseRounds.of(observations)
         return self.rounds
 
 
@@ -321,19 +320,42 @@ def covariances_of(info: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c00, c01], axis=-1), np.stack([c01, c11], axis=-1)], axis=-2)
 
 
+# The six components (row, column) of a symmetric 3x3 pose covariance, as
+# :func:`observed_information` reads them.
+COMPONENTS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+
+
+def lever_terms(gain: np.ndarray, noise: np.ndarray) -> np.ndarray:
+    """``(10, M)``: each observation's ``noise + gain S gain^T`` as a linear function of
+    the :data:`COMPONENTS` ``s..`` of its pose's covariance ``S``, for gains ``[-I | (a, b)]``
+    (a range-bearing observation of a point: ``virtual_map.lever_and_noise``)::
+
+        c00 = n00 + s00 - 2a s02 + a^2 s22
+        c01 = n01 + s01 -  b s02 -   a s12 + ab s22
+        c11 = n11 + s11 - 2b s12 + b^2 s22
+
+    Rows: ``n00, -2a, a^2, n01, -b, -a, ab, n11, -2b, b^2``."""
+    a, b = gain[:, 0, 2], gain[:, 1, 2]
+    return np.stack([noise[:, 0, 0], -2.0 * a, a * a, noise[:, 0, 1], -b, -a, a * b, noise[:, 1, 1], -2.0 * b, b * b])
+
+
 @dataclass
 class FuseRounds:
     """The current observations arranged for covariance intersection in rounds: round
     ``j`` fuses the ``j``-th observation (pose order) of every landmark seen more than
     ``j`` times. Landmarks (columns) are sorted by observation count, most first, so a
-    round touches a prefix of the columns and its rows are one contiguous slice."""
+    round touches a prefix of the columns and its rows are one contiguous slice. Built
+    once per decision: U0 and every loop candidate fuse the same observations."""
 
-    rows: np.ndarray  # (M,) observation rows in (round, column) order
-    offsets: np.ndarray  # (R + 1,) where each round's rows start in ``rows``
+    offsets: np.ndarray  # (R + 1,) where each round's rows start
     landmarks: np.ndarray  # (S,) the landmark of each column
+    pose_idx: np.ndarray  # (M,) the pose of each row (round order)
+    terms: np.ndarray  # (10, M) :func:`lever_terms` of each row (round order)
 
     @classmethod
-    def of(cls, landmark_idx: np.ndarray) -> FuseRounds:
+    def of(cls, observations: Observations) -> FuseRounds:
+        """``observations`` (gains ``[-I | lever]``: :meth:`Observations.closed_form`)."""
+        landmark_idx = observations.landmark_idx
         order = np.argsort(landmark_idx, kind="stable")
         sorted_lm = landmark_idx[order]
         starts = np.flatnonzero(np.r_[True, sorted_lm[1:] != sorted_lm[:-1]]) if len(order) else order
@@ -345,57 +367,94 @@ class FuseRounds:
         slot = rank * max(len(starts), 1) + np.repeat(column, counts)
         rows = order[np.argsort(slot)]
         offsets = np.r_[0, np.cumsum(np.bincount(rank))] if len(order) else np.zeros(1, dtype=int)
-        return cls(rows, offsets.astype(np.int64), sorted_lm[starts][by_count])
+        terms = lever_terms(observations.gain, observations.noise)[:, rows]
+        return cls(offsets.astype(np.int64), sorted_lm[starts][by_count], observations.pose_idx[rows], terms)
 
 
-def fuse_batched(rounds: FuseRounds, pose_idx: np.ndarray, gain: np.ndarray, noise: np.ndarray,
-                 pose_covs: np.ndarray, initial: np.ndarray) -> np.ndarray:
-    """``(C, S, 2, 2)``: the landmarks of ``rounds`` after fusing every observation
-    (``pose_idx``, ``gain``, ``noise`` of :class:`~explore_rl.planning.em.Observations`)
-    into ``initial (S, 2, 2)``, for ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)``
-    at once -- :func:`~explore_rl.planning.virtual_map.fuse_in_order` per set (same order,
-    same covariance-intersection arithmetic), one pass of rounds for all sets."""
-    rows = rounds.rows
-    observed = observed_information(gain[rows], noise[rows], pose_covs, pose_idx[rows])  # (3, M, C)
+def fuse_batched(rounds: FuseRounds, pose_covs: np.ndarray, initial: np.ndarray) -> np.ndarray:
+    """``(C, S, 2, 2)``: the landmarks of ``rounds`` after fusing every observation into
+    ``initial (S, 2, 2)``, for ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)`` at
+    once -- :func:`~explore_rl.planning.virtual_map.fuse_in_order` per set (same order, the
+    same covariance intersection), one pass of rounds for all sets."""
+    observed = observed_information(rounds.terms, pose_covs, rounds.pose_idx)  # (4, M, C)
     info = np.repeat(information_components(initial)[:, :, None], len(pose_covs), axis=2)  # (3, S, C)
     with np.errstate(divide="ignore", invalid="ignore"):
         for begin, end in zip(rounds.offsets[:-1].tolist(), rounds.offsets[1:].tolist()):
-            a, b = info[:, : end - begin], observed[:, begin:end]
-            diff = a - b
-            info[:, : end - begin] = b + ci_weight(a, b, diff) * diff
-    return covariances_of(np.moveaxis(info, 2, 1))  # (C, S, 2, 2)
+            intersect(info[:, : end - begin], observed[:, begin:end])
+    return covariances_of(np.moveaxis(info, 2, 1))
 
 
-def observed_information(gain: np.ndarray, noise: np.ndarray, pose_covs: np.ndarray,
-                         pose_idx: np.ndarray) -> np.ndarray:
-    """``(3, M, C)`` information components of ``noise + gain S gain^T`` for each
-    observation ``(gain (M, 2, 3), noise (M, 2, 2))`` of pose ``pose_idx (M,)`` and each of
-    ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)``: component arithmetic on
-    ``(rows, C)`` arrays, ``OBSERVATION_CHUNK`` rows at a time (temporaries stay in cache;
-    a gathered ``(C, M, 3, 3)`` stack is slower and large)."""
-    covs = np.ascontiguousarray(np.moveaxis(pose_covs, 0, -1))  # (N, 3, 3, C)
-    components = [np.ascontiguousarray(covs[:, i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))]
-    out = np.empty((3, len(gain), pose_covs.shape[0]))
-    for begin in range(0, len(gain), OBSERVATION_CHUNK):
+def intersect(info: np.ndarray, observed: np.ndarray) -> None:
+    """One round of covariance intersection, in place: ``info (3, ...)`` (the running
+    information components) becomes ``B + w (A - B)`` with ``B = observed[:3]`` and ``w``
+    the maximiser over [0, 1] of ``det(B + w D) = det B + lin w + quad w^2`` (``D = A - B``),
+    as :func:`~explore_rl.planning.virtual_map.ci_weight` -- the clamped stationary point
+    where the quadratic is concave, else the endpoint with the larger determinant, found
+    from ``det A - det B = lin + quad`` -- with fewer operations and temporaries.
+    ``observed[3]`` holds ``2 b01``. Call under ``np.errstate(divide="ignore", invalid="ignore")``."""
+    b = observed[:3]
+    diff = info - b
+    d00, d01, d11 = diff
+    quad = d00 * d11
+    quad -= d01 * d01
+    lin = observed[0] * d11
+    lin += observed[2] * d00
+    lin -= observed[3] * d01
+    stationary = lin / (-2.0 * quad)
+    np.clip(stationary, 0.0, 1.0, out=stationary)
+    lin += quad
+    diff *= np.where(quad < 0, stationary, np.sign(lin) * 0.5 + 0.5)
+    np.add(diff, b, out=info)
+
+
+def observed_information(terms: np.ndarray, pose_covs: np.ndarray, pose_idx: np.ndarray) -> np.ndarray:
+    """``(4, M, C)``: ``(i00, i01, i11, 2 i01)`` of the information ``(noise + gain S
+    gain^T)^-1`` of each observation (:func:`lever_terms` ``terms (10, M)``, pose
+    ``pose_idx (M,)``) for each of ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)``:
+    component arithmetic on ``(rows, C)`` arrays, ``OBSERVATION_CHUNK`` rows at a time
+    (temporaries stay in cache)."""
+    covs = np.stack([pose_covs[:, :, i, j].T for i, j in COMPONENTS])  # (6, N, C)
+    out = np.empty((4, len(pose_idx), pose_covs.shape[0]))
+    for begin in range(0, len(pose_idx), OBSERVATION_CHUNK):
         rows = slice(begin, begin + OBSERVATION_CHUNK)
-        out[:, rows] = _observed_chunk(gain[rows], noise[rows], [c[pose_idx[rows]] for c in components])
+        _observed_chunk(terms[:, rows, None], np.take(covs, pose_idx[rows], axis=1), out[:, rows])
     return out
 
 
-OBSERVATION_CHUNK = 4096
+OBSERVATION_CHUNK = 2048
 
 
-def _observed_chunk(gain: np.ndarray, noise: np.ndarray, covs: list[np.ndarray]) -> np.ndarray:
-    """:func:`observed_information` of one chunk (``covs``: the six components, ``(rows, C)``)."""
+def _observed_chunk(terms: np.ndarray, covs: np.ndarray, out: np.ndarray) -> None:
+    """:func:`observed_information` of one chunk into ``out (4, rows, C)`` (``terms (10,
+    rows, 1)``, ``covs (6, rows, C)``), in place where it can."""
+    n00, a1, a2, n01, x1, x2, x3, n11, b1, b2 = terms
     s00, s01, s02, s11, s12, s22 = covs
-    a0, a1, a2, b0, b1, b2 = (gain[:, i, j, None] for i in range(2) for j in range(3))
-    u0, u1, u2 = a0 * s00 + a1 * s01 + a2 * s02, a0 * s01 + a1 * s11 + a2 * s12, a0 * s02 + a1 * s12 + a2 * s22
-    v0, v1, v2 = b0 * s00 + b1 * s01 + b2 * s02, b0 * s01 + b1 * s11 + b2 * s12, b0 * s02 + b1 * s12 + b2 * s22
-    c00 = noise[:, 0, 0, None] + (u0 * a0 + u1 * a1 + u2 * a2)
-    c01 = noise[:, 0, 1, None] + (u0 * b0 + u1 * b1 + u2 * b2)
-    c11 = noise[:, 1, 1, None] + (v0 * b0 + v1 * b1 + v2 * b2)
-    det = c00 * c11 - c01 * c01
-    return np.stack([c11 / det, -c01 / det, c00 / det])
+    c00 = a1 * s02
+    c00 += n00
+    c00 += s00
+    term = a2 * s22
+    c00 += term
+    c01 = x1 * s02
+    c01 += n01
+    c01 += s01
+    np.multiply(x2, s12, out=term)
+    c01 += term
+    np.multiply(x3, s22, out=term)
+    c01 += term
+    c11 = b1 * s12
+    c11 += n11
+    c11 += s11
+    np.multiply(b2, s22, out=term)
+    c11 += term
+    det = c00 * c11
+    np.multiply(c01, c01, out=term)
+    det -= term
+    np.divide(c11, det, out=out[0])
+    np.divide(c01, det, out=out[1])
+    np.negative(out[1], out=out[1])
+    np.divide(c00, det, out=out[2])
+    np.multiply(out[1], 2.0, out=out[3])
+
 
 def batch_observations(vmap: VirtualMap, poses: list[np.ndarray], blocked: np.ndarray) -> list[tuple]:
     """``vmap.visible_pairs`` of each pose set in ``poses``, with one line-of-sight batch
