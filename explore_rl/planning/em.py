@@ -47,6 +47,7 @@ from explore_rl.planning.em_fast import (
     fast_world_covariances,
     fuse_batched,
     loop_update,
+    step_tangent_covariances,
 )
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.reward import normalize_rewards, raw_reward
@@ -655,7 +656,9 @@ class EMPlanner:
         revisited = {r.keyframe_index for p in predicted for r in p.revisits}
         dims = list(PLANAR) if context.fast.decoupled else list(range(6))
         context.fast.cross(sorted(revisited) + [len(context.poses) - 1], dims, dims)  # one solve for all
-        covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
+        steps = step_tangent_covariances(context.graph, np.concatenate([p.steps for p in predicted]), ssm)
+        bounds = np.cumsum([len(p) for p in predicted])[:-1]
+        covs = [loop_update(context, context.fast, p, s, loop) for p, s in zip(predicted, np.split(steps, bounds))]
         maps = fused_map(context.fast, context.observations, np.stack([c.old for c in covs]),
                          context.vmap.prior_covariances())
         return maps, [c.new for c in covs]

@@ -54,7 +54,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
-from explore_rl.planning.config import EMConfig
 from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 
@@ -223,11 +222,11 @@ class CandidateCovariances:
     new: np.ndarray  # (P, 3, 3) the predicted keyframes
 
 
-def loop_update(context: DecisionContext, fast: FastContext, predicted: PredictedPath,
-                graph: PoseGraph, config: EMConfig, ssm_cov: np.ndarray,
+def loop_update(context: DecisionContext, fast: FastContext, predicted: PredictedPath, steps: np.ndarray,
                 loop_cov: np.ndarray) -> CandidateCovariances:
     """Every keyframe's covariance once the predicted keyframes and loops join the graph
-    (module docstring, steps 1-2)."""
+    (module docstring, steps 1-2); ``steps (P, 6, 6)``: the predicted steps' noise
+    (:func:`step_tangent_covariances`), ``loop_cov (6, 6)`` the loops'."""
     last = len(context.poses) - 1
     revisited = np.array([r.keyframe_index for r in predicted.revisits], dtype=int)
     at = np.array([r.path_index for r in predicted.revisits], dtype=int)
@@ -236,7 +235,6 @@ def loop_update(context: DecisionContext, fast: FastContext, predicted: Predicte
     adj_new = planar_adjoint(poses_new)  # (P, 6, 6)
     adj_new_inv = planar_adjoint_inverse(poses_new)
     adj_last = planar_adjoint(context.poses[last])[0]
-    steps = step_tangent_covariances(graph, predicted.steps, ssm_cov)
     if fast.decoupled and not (_block_diagonal(steps) and _block_diagonal(loop_cov)):
         fast = fast.full()  # predicted factors that couple the planar dofs with the others
     sigma_last = fast.tangent_covs[last]
@@ -244,21 +242,23 @@ def loop_update(context: DecisionContext, fast: FastContext, predicted: Predicte
     # 1. the chain: world-frame accumulated covariance W_k = Cov(eta_k)
     world_steps = adj_new @ steps @ np.swapaxes(adj_new, 1, 2)
     world = adj_last @ sigma_last @ adj_last.T + np.cumsum(world_steps, axis=0)  # (P, 6, 6)
-    new_tangent = adj_new_inv @ world @ np.swapaxes(adj_new_inv, 1, 2)
-    old_tangent = fast.tangent_covs
-    if m:
-        # planar poses and factors: the planar rows of every update involve only planar dofs
-        dims = list(PLANAR) if fast.decoupled else list(range(BLOCK))
-        old_tangent, new_tangent = _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv,
-                                             adj_last, loop_cov, old_tangent, new_tangent, dims)
-    return CandidateCovariances(world_from_tangent(old_tangent, context.poses),
-                                world_from_tangent(new_tangent, poses_new))
+    new = world_from_tangent(adj_new_inv @ world @ np.swapaxes(adj_new_inv, 1, 2), poses_new)
+    if not m:
+        return CandidateCovariances(context.pose_covs, new)
+    # 2. the loops; planar poses and factors: the planar rows of every update involve only planar dofs
+    dims = list(PLANAR) if fast.decoupled else list(range(BLOCK))
+    u_old, u_new, gain = _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_last, loop_cov,
+                                   dims)
+    return CandidateCovariances(_downdate(context.pose_covs, context.poses, u_old, gain),
+                                _downdate(new, poses_new, u_new, gain))
 
 
 def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_last, loop_cov,
-              old_tangent, new_tangent, dims: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """Condition the chain's joint on the ``m`` loops ``eta_k - eta_r ~ N(0, R)``; only the
-    planar rows/columns (yaw, x, y) of each updated marginal are needed, the rest are kept.
+              dims: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Condition the chain's joint on the ``m`` loops ``y_j = eta_k - eta_r ~ N(0, R)``:
+    the cross-covariances ``U (n, 3, m d)`` of the planar tangent rows (yaw, x, y) of every
+    old and every new keyframe with the loops, and ``gain = Cov(y)^-1``, for
+    :func:`_downdate` (only the planar rows/columns of each marginal are needed).
     ``dims``: the tangent components of the loops that enter (all 6, or the planar 3 when
     nothing couples them to roll, pitch and z: the same planar result at a quarter of the
     cost, a rank-3m update from 3 covariance columns per revisited keyframe)."""
@@ -287,18 +287,17 @@ def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_las
     k = np.arange(len(world))
     inv_rows = adj_new_inv[..., dims] if d < BLOCK else adj_new_inv
     u_new = inv_rows[:, None] @ (world[np.minimum(k[:, None], at[None, :])] - np.swapaxes(eta_r_k, 1, 2)[None])
-    old_tangent = _downdate(old_tangent, u_old.reshape(n, 3, m * d), gain, planar)
-    new_tangent = _downdate(new_tangent, u_new.transpose(0, 2, 1, 3).reshape(len(world), 3, -1), gain, planar)
-    return old_tangent, new_tangent
+    return u_old.reshape(n, 3, m * d), u_new.transpose(0, 2, 1, 3).reshape(len(world), 3, -1), gain
 
 
-def _downdate(covs: np.ndarray, u_rows: np.ndarray, gain: np.ndarray, rows: list[int]) -> np.ndarray:
-    """``covs - U gain U^T`` on the ``rows`` block of each covariance (``u_rows (N, 3, 6m)``:
-    the cross-covariances of those rows with the loops)."""
-    out = covs.copy()
-    block = np.ix_(rows, rows)
-    out[:, block[0], block[1]] = covs[:, block[0], block[1]] - u_rows @ gain @ np.swapaxes(u_rows, 1, 2)
-    return out
+def _downdate(world: np.ndarray, poses: np.ndarray, u_rows: np.ndarray, gain: np.ndarray) -> np.ndarray:
+    """World-frame (x, y, yaw) covariances ``world (N, 3, 3)`` after the loops: ``world -
+    (J U) gain (J U)^T``, with ``U = u_rows (N, 3, k)`` the cross-covariances of the planar
+    tangent rows (yaw, x, y) with the loops and ``J`` their rotation to world (x, y, yaw)
+    (:func:`world_from_tangent`)."""
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    u = np.stack([c * u_rows[:, 1] - s * u_rows[:, 2], s * u_rows[:, 1] + c * u_rows[:, 2], u_rows[:, 0]], axis=1)
+    return world - u @ gain @ np.swapaxes(u, 1, 2)
 
 
 # ---------------------------------------------------------------------- landmarks
@@ -390,7 +389,8 @@ def intersect(info: np.ndarray, observed: np.ndarray) -> None:
     the maximiser over [0, 1] of ``det(B + w D) = det B + lin w + quad w^2`` (``D = A - B``),
     as :func:`~explore_rl.planning.virtual_map.ci_weight` -- the clamped stationary point
     where the quadratic is concave, else the endpoint with the larger determinant, found
-    from ``det A - det B = lin + quad`` -- with fewer operations and temporaries.
+    from ``det A - det B = lin + quad`` (an exact tie takes ``B``, where ``ci_weight``
+    takes ``w = 0.5``: the same when ``A = B``) -- with fewer operations and temporaries.
     ``observed[3]`` holds ``2 b01``. Call under ``np.errstate(divide="ignore", invalid="ignore")``."""
     b = observed[:3]
     diff = info - b
@@ -401,9 +401,9 @@ def intersect(info: np.ndarray, observed: np.ndarray) -> None:
     lin += observed[2] * d00
     lin -= observed[3] * d01
     stationary = lin / (-2.0 * quad)
-    np.clip(stationary, 0.0, 1.0, out=stationary)
+    np.minimum(np.maximum(stationary, 0.0, out=stationary), 1.0, out=stationary)
     lin += quad
-    diff *= np.where(quad < 0, stationary, np.sign(lin) * 0.5 + 0.5)
+    diff *= np.where(quad < 0, stationary, lin > 0)
     np.add(diff, b, out=info)
 
 

@@ -199,8 +199,9 @@ def test_a_coupling_update_on_a_planar_context_uses_the_full_factorisation():
     full = FastContext.of(state.session.graph, planar=False)
     assert planar.decoupled and not full.decoupled
     ssm = ssm_covariance(em.em)
-    got = loop_update(context, planar, looping, state.session.graph, em.em, ssm, coupled)
-    expected = loop_update(context, full, looping, state.session.graph, em.em, ssm, coupled)
+    steps = step_tangent_covariances(state.session.graph, looping.steps, ssm)
+    got = loop_update(context, planar, looping, steps, coupled)
+    expected = loop_update(context, full, looping, steps, coupled)
     assert planar._full is not None  # the switch happened
     np.testing.assert_allclose(got.old, expected.old, rtol=1e-10, atol=1e-14)
     np.testing.assert_allclose(got.new, expected.new, rtol=1e-10, atol=1e-14)
