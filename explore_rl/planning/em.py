@@ -43,6 +43,7 @@ from explore_rl.planning.config import EMConfig, PlanningConfig
 from explore_rl.planning.em_fast import (
     PLANAR,
     FastContext,
+    FuseRounds,
     batch_observations,
     fast_world_covariances,
     fuse_batched,
@@ -301,7 +302,7 @@ class ObservationCache:
         """:meth:`Observations.of` ``(vmap, poses, blocked)``, reusing what still holds."""
         keep = self.unmoved(vmap, poses, blocked)
         fresh = np.flatnonzero(~keep)
-        pose_idx, landmark_idx = vmap.visible_pairs(poses[fresh], blocked)
+        pose_idx, landmark_idx = vmap.visible_pairs(poses[fresh], blocked, by_length=True)
         fresh_pairs = (fresh[pose_idx], landmark_idx)
         kept_pairs = self.kept_pairs(vmap, np.flatnonzero(keep), blocked)
         pose_idx = np.concatenate([fresh_pairs[0], kept_pairs[0]])
@@ -341,7 +342,7 @@ class ObservationCache:
             visible = self.was_visible(vmap, retest, owner, in_range)
             touched = _any_in_boxes(changed, vmap.grid, self.xy[owner], vmap.landmark_xy[in_range],
                                   vmap.grid.resolution)
-            visible[touched] = vmap.line_of_sight(self.xy[owner[touched]], in_range[touched], blocked)
+            visible[touched] = vmap.line_of_sight(self.xy[owner[touched]], in_range[touched], blocked, by_length=True)
             pose_idx.append(owner[visible])
             landmark_idx.append(in_range[visible])
         return np.concatenate(pose_idx), np.concatenate(landmark_idx)
@@ -489,7 +490,7 @@ def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: st
         observations = cache.observations_of(vmap, poses, blocked)
     else:  # the fast fusion reads the closed form's exact [-I | lever] gains
         observe = Observations.of_pairs if fast is None else Observations.closed_form
-        observations = observe(vmap, poses, *vmap.visible_pairs(poses, blocked))
+        observations = observe(vmap, poses, *vmap.visible_pairs(poses, blocked, by_length=fast is not None))
     landmark_covs = (observations.fuse(vmap.prior_covariances(), pose_covs) if fast is None
                      else fused_map(fast, observations, pose_covs[None], vmap.prior_covariances())[0])
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
@@ -627,24 +628,24 @@ class EMPlanner:
             maps[loop], loop_covs = self.loop_maps(context, [paths[i] for i in loop])
             for i, covs in zip(loop, loop_covs):
                 new_covs[i] = covs
-        fuse_each(maps, self.new_observations(context, paths), new_covs)
+        fuse_each(maps, self.new_observations(context, paths), np.concatenate(new_covs))
         u_after[moving] = [context.vmap.utility(covs) for covs in maps]
         return u_after
 
-    def new_observations(self, context: DecisionContext, predicted: list[PredictedPath]) -> list[Observations]:
-        """What each candidate's predicted keyframes see: one line-of-sight batch for the
-        distinct poses of all candidates, one Jacobian batch for all pairs."""
+    def new_observations(self, context: DecisionContext, predicted: list[PredictedPath]) -> Observations:
+        """What the candidates' predicted keyframes see, all in one (one line-of-sight batch
+        for the distinct poses of all candidates, one Jacobian batch for all pairs): pose
+        ``i`` is row ``i`` of the candidates' poses stacked, landmark ``k L + l`` is
+        landmark ``l`` of candidate ``k``'s map (``L`` landmarks)."""
         visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
-        sizes = np.array([len(p) for p in predicted])
-        offsets = np.r_[0, np.cumsum(sizes)]
+        offsets = np.r_[0, np.cumsum([len(p) for p in predicted])]
         poses = np.concatenate([p.poses for p in predicted])
         pose_idx = np.concatenate([pairs[0] + offset for pairs, offset in zip(visible, offsets)])
         landmark_idx = np.concatenate([pairs[1] for pairs in visible])
-        everything = Observations.closed_form(context.vmap, poses, pose_idx, landmark_idx)
-        bounds = np.cumsum([len(pairs[0]) for pairs in visible])[:-1]
-        return [Observations(pairs[0], *parts) for pairs, *parts in zip(
-            visible, np.split(everything.landmark_idx, bounds), np.split(everything.gain, bounds),
-            np.split(everything.noise, bounds))]
+        observations = Observations.closed_form(context.vmap, poses, pose_idx, landmark_idx)
+        candidate = np.repeat(np.arange(len(predicted)), [len(pairs[0]) for pairs in visible])
+        return Observations(pose_idx, candidate * context.vmap.num_landmarks + landmark_idx, observations.gain,
+                            observations.noise)
 
     def loop_maps(self, context: DecisionContext,
                   predicted: list[PredictedPath]) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -664,14 +665,13 @@ class EMPlanner:
         return maps, [c.new for c in covs]
 
 
-def fuse_each(maps: np.ndarray, observations: list[Observations], pose_covs: list[np.ndarray]) -> None:
-    """Fuse ``observations[k]`` (pose covariances ``pose_covs[k]``) into ``maps[k]`` in place
-    for every ``k``: :meth:`Observations.fuse` of each, in one pass (a landmark of map ``k``
-    is its own sequence, fused in the same order)."""
-    num_landmarks = maps.shape[1]
-    landmark_idx = np.concatenate([k * num_landmarks + o.landmark_idx for k, o in enumerate(observations)])
-    if not len(landmark_idx):
+def fuse_each(maps: np.ndarray, observations: Observations, pose_covs: np.ndarray) -> None:
+    """Fuse the candidates' new ``observations`` (:meth:`EMPlanner.new_observations`: pose
+    covariances ``pose_covs (P, 3, 3)``, landmark ``k L + l`` of map ``k``) into ``maps (C,
+    L, 2, 2)`` in place: :meth:`Observations.fuse` of each candidate's, in one pass of
+    :func:`fuse_batched` rounds (a landmark of map ``k`` is its own sequence, same order)."""
+    if not len(observations.landmark_idx):
         return
-    observed = np.concatenate([o.landmark_covariances(c) for o, c in zip(observations, pose_covs)])
-    flat = maps.reshape(-1, 2, 2)
-    fuse_in_order(flat, landmark_idx, observed)
+    flat = np.reshape(maps, (-1, 2, 2), copy=False)  # a view: fused in place
+    rounds = FuseRounds.of(observations)
+    flat[rounds.landmarks] = fuse_batched(rounds, pose_covs[None], flat[rounds.landmarks])[0]

@@ -465,7 +465,7 @@ def batch_observations(vmap: VirtualMap, poses: list[np.ndarray], blocked: np.nd
         return [(np.zeros(0, dtype=int), np.zeros(0, dtype=int)) for _ in poses]
     stacked = np.concatenate([np.asarray(p, float).reshape(-1, 3) for p in poses])
     unique, inverse = np.unique(stacked, axis=0, return_inverse=True)
-    pose_idx, landmark_idx = vmap.visible_pairs(unique, blocked)
+    pose_idx, landmark_idx = vmap.visible_pairs(unique, blocked, by_length=True)
     starts = np.searchsorted(pose_idx, np.arange(len(unique) + 1))
     out, offset = [], 0
     for size in sizes:

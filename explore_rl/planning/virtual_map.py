@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from explore_rl.grid import GridSpec
-from explore_rl.mapping.visibility import line_of_sight
+from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.planning.config import VirtualMapConfig
 
 # ---------------------------------------------------------------------------- 2x2 algebra
@@ -244,16 +244,17 @@ class VirtualMap:
         return np.stack([diy.ravel(), dix.ravel()], axis=-1)
 
     def visible_pairs(
-        self, poses: np.ndarray, blocked: np.ndarray
+        self, poses: np.ndarray, blocked: np.ndarray, by_length: bool = False
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(pose_index, landmark_index)`` of every landmark a pose observes, in pose order.
 
         Observed = within ``sensor_range`` and in line of sight (known-occupied cells of
         ``blocked`` block, except inside the landmark's own cell; unknown cells do not).
+        ``by_length``: see :meth:`line_of_sight`.
         """
         poses = np.asarray(poses, float).reshape(-1, 3)
         pose_idx, landmark_idx = self.in_range_pairs(poses)
-        visible = self.line_of_sight(poses[pose_idx], landmark_idx, blocked)
+        visible = self.line_of_sight(poses[pose_idx], landmark_idx, blocked, by_length)
         return pose_idx[visible], landmark_idx[visible]
 
     def in_range_pairs(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -268,10 +269,14 @@ class VirtualMap:
         pose_idx, slot = np.nonzero(inside & (dist <= self.config.sensor_range))
         return pose_idx, index[pose_idx, slot]
 
-    def line_of_sight(self, poses: np.ndarray, landmark_idx: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+    def line_of_sight(self, poses: np.ndarray, landmark_idx: np.ndarray, blocked: np.ndarray,
+                      by_length: bool = False) -> np.ndarray:
         """``(M,)``: whether each pose (``(M, 2)`` or ``(M, 3)``) sees its landmark past the
-        known-occupied cells of ``blocked`` (:meth:`visible_pairs`)."""
-        return line_of_sight(
+        known-occupied cells of ``blocked`` (:meth:`visible_pairs`). ``by_length``: the same
+        answers from :func:`~explore_rl.mapping.visibility.line_of_sight_by_length` (segments
+        far from any blocked cell unsampled; EM's fast backend), else from ``line_of_sight``."""
+        visibility = line_of_sight_by_length if by_length else line_of_sight
+        return visibility(
             np.asarray(poses, float)[:, :2],
             self.landmark_xy[landmark_idx],
             blocked,

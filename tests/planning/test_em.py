@@ -348,9 +348,9 @@ def test_observation_cache_keeps_what_it_can():
     tested = []
     original = vmap.line_of_sight
 
-    def counting(xy, landmark_idx, grid_blocked):
+    def counting(xy, landmark_idx, grid_blocked, by_length=False):
         tested.append(np.asarray(xy)[:, :2].copy())
-        return original(xy, landmark_idx, grid_blocked)
+        return original(xy, landmark_idx, grid_blocked, by_length)
 
     vmap.line_of_sight = counting
     assert_same_observations(cache.observations_of(vmap, poses, blocked), expected)
