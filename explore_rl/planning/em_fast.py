@@ -300,6 +300,15 @@ def _downdate(world: np.ndarray, poses: np.ndarray, u_rows: np.ndarray, gain: np
     return world - u @ gain @ np.swapaxes(u, 1, 2)
 
 
+def distinct(arrays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bitwise-distinct ``arrays[k]`` (first occurrences, in order) and, for each
+    ``k``, the position of its copy among them: ``distinct[inverse] == arrays``."""
+    positions: dict[bytes, int] = {}
+    inverse = np.array([positions.setdefault(a.tobytes(), len(positions)) for a in arrays], dtype=np.int64)
+    first = np.unique(inverse, return_index=True)[1]
+    return arrays[first], inverse
+
+
 # ---------------------------------------------------------------------- landmarks
 
 

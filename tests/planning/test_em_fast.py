@@ -25,6 +25,7 @@ from explore_rl.planning.em import EMPlanner, Observations, ssm_covariance
 from explore_rl.planning.em_fast import (
     FuseRounds,
     covariances_of,
+    distinct,
     fuse_batched,
     intersect,
     lever_terms,
@@ -130,6 +131,16 @@ def test_batched_fusion_is_the_fusion_in_order_of_each_set():
     for k in range(len(covs)):
         expected = observations.fuse(prior, covs[k])
         np.testing.assert_allclose(fused[k], expected[rounds.landmarks], rtol=1e-9)
+
+
+def test_distinct_finds_bitwise_copies():
+    rng = np.random.default_rng(4)
+    a, b = rng.normal(size=(2, 5, 3, 3))
+    near = a.copy()
+    near[0, 0, 0] = np.nextafter(near[0, 0, 0], np.inf)  # one ulp away: not a copy
+    unique, inverse = distinct(np.stack([a, b, a, near, b]))
+    np.testing.assert_array_equal(inverse, [0, 1, 0, 2, 1])
+    np.testing.assert_array_equal(unique, np.stack([a, b, near]))
 
 
 def test_step_noise_is_odometry_and_scan_matching_fused():
