@@ -271,7 +271,10 @@ def _woodbury(context, fast, revisited, at, world, adj_new, adj_new_inv, adj_las
     columns = fast.cross(np.r_[revisited, n - 1], dims, planar + [c for c in dims if c not in planar])
     # Cov(xi_a, y_j), y_j = eta_{k_j} - eta_{r_j}, planar rows of every old pose: (N, 3, m, d)
     rows = columns[:, :3]
-    u_old = (rows[:, :, m] @ adj_last.T)[:, :, None] - (rows[:, :, :m, None, :] @ np.swapaxes(adj_r, 1, 2))[..., 0, :]
+    u_old = np.empty((n, 3, m, d))
+    last = rows[:, :, m] @ adj_last.T
+    for j in range(m):  # one product per loop (a stacked (1, d) @ (d, d) per row is slower)
+        np.subtract(last, rows[:, :, j] @ adj_r[j].T, out=u_old[:, :, j])
     # the loops' own covariance S0 = Cov(y) and R (world-frame loop noise at k_j)
     by_dims = [(planar + [c for c in dims if c not in planar]).index(c) for c in dims]
     at_r = columns[revisited][:, by_dims].transpose(0, 2, 1, 3)  # (m, m + 1, d, d): Cov(xi_r, xi_j)
@@ -297,7 +300,8 @@ def _downdate(world: np.ndarray, poses: np.ndarray, u_rows: np.ndarray, gain: np
     (:func:`world_from_tangent`)."""
     c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
     u = np.stack([c * u_rows[:, 1] - s * u_rows[:, 2], s * u_rows[:, 1] + c * u_rows[:, 2], u_rows[:, 0]], axis=1)
-    return world - u @ gain @ np.swapaxes(u, 1, 2)
+    u_gain = (u.reshape(-1, u.shape[-1]) @ gain).reshape(u.shape)  # one product for all rows
+    return world - u_gain @ np.swapaxes(u, 1, 2)
 
 
 def distinct(arrays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
