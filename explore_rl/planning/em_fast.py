@@ -23,13 +23,18 @@ Per candidate with a predicted loop (:func:`loop_update`), instead of copying iS
    rank-``6m`` update of that joint (Woodbury), which needs only the covariance columns
    of the revisited keyframes ``r`` and of the last keyframe (rank ``3m`` and three
    columns each when planar and off-plane dofs are decoupled);
-3. the virtual map is fused again from the prior, in the same order and with the same
-   covariance-intersection arithmetic as the reference, but for all loop candidates in
-   one pass of rounds (:func:`fuse_batched`): a round costs ~20 numpy calls whatever its
-   size, and there are as many rounds as the most-seen landmark has observations
-   (~200-300 on office graphs), so one pass for ten candidates costs little more than one.
-   The new keyframes' line-of-sight tests run once for the distinct predicted poses of
-   all candidates (:func:`batch_observations`; paths share their first stretch).
+3. the virtual map is fused again from the prior, in the same order and by the same
+   covariance intersection as the reference, but for all loop candidates in one pass of
+   rounds (:func:`fuse_batched`): a round costs ~20 numpy calls whatever its size, and
+   there are as many rounds as the most-seen landmark has observations (~150-200 on
+   office graphs). Candidates whose paths agree up to their last loop leave bitwise the
+   same old covariances (about a third of them): each distinct set is fused once
+   (:func:`distinct`). An observation's covariance ``noise + gain S gain^T`` is a linear
+   function of the pose covariance ``S`` (gains ``[-I | lever]``: :func:`lever_terms`),
+   evaluated as component arithmetic on ``(rows, sets)`` arrays. The new keyframes'
+   line-of-sight tests run once for the distinct predicted poses of all candidates
+   (:func:`batch_observations`; paths share their first stretch), and their observations
+   are fused into every candidate's map by the same rounds.
 
 Computed in world-frame adjoint coordinates ``eta = Ad(T) xi`` (gtsam's right perturbation
 ``T Exp(xi)``): a chain keyframe then moves as ``eta_k = eta_last + sum of step noises``,
