@@ -447,23 +447,10 @@ def _observed_chunk(terms: np.ndarray, covs: np.ndarray, out: np.ndarray) -> Non
     rows, 1)``, ``covs (6, rows, C)``), in place where it can."""
     n00, a1, a2, n01, x1, x2, x3, n11, b1, b2 = terms
     s00, s01, s02, s11, s12, s22 = covs
-    c00 = a1 * s02
-    c00 += n00
-    c00 += s00
-    term = a2 * s22
-    c00 += term
-    c01 = x1 * s02
-    c01 += n01
-    c01 += s01
-    np.multiply(x2, s12, out=term)
-    c01 += term
-    np.multiply(x3, s22, out=term)
-    c01 += term
-    c11 = b1 * s12
-    c11 += n11
-    c11 += s11
-    np.multiply(b2, s22, out=term)
-    c11 += term
+    term = np.empty_like(s00)
+    c00 = _affine(n00, s00, [(a1, s02), (a2, s22)], term)
+    c01 = _affine(n01, s01, [(x1, s02), (x2, s12), (x3, s22)], term)
+    c11 = _affine(n11, s11, [(b1, s12), (b2, s22)], term)
     det = c00 * c11
     np.multiply(c01, c01, out=term)
     det -= term
@@ -472,6 +459,20 @@ def _observed_chunk(terms: np.ndarray, covs: np.ndarray, out: np.ndarray) -> Non
     np.negative(out[1], out=out[1])
     np.divide(c00, det, out=out[2])
     np.multiply(out[1], 2.0, out=out[3])
+
+
+def _affine(constant: np.ndarray, component: np.ndarray, products: list[tuple[np.ndarray, np.ndarray]],
+            scratch: np.ndarray) -> np.ndarray:
+    """``constant + component + sum of coefficient * other`` over ``products`` (a new
+    array; ``scratch`` holds each product)."""
+    (coefficient, other), *rest = products
+    out = coefficient * other
+    out += constant
+    out += component
+    for coefficient, other in rest:
+        np.multiply(coefficient, other, out=scratch)
+        out += scratch
+    return out
 
 
 def batch_observations(vmap: VirtualMap, poses: list[np.ndarray], blocked: np.ndarray) -> list[tuple]:
