@@ -675,6 +675,6 @@ def fuse_each(maps: np.ndarray, observations: Observations, pose_covs: np.ndarra
     :func:`fuse_batched` rounds (a landmark of map ``k`` is its own sequence, same order)."""
     if not len(observations.landmark_idx):
         return
-    flat = np.reshape(maps, (-1, 2, 2), copy=False)  # a view: fused in place
     rounds = FuseRounds.of(observations)
-    flat[rounds.landmarks] = fuse_batched(rounds, pose_covs[None], flat[rounds.landmarks])[0]
+    candidate, landmark = np.divmod(rounds.landmarks, maps.shape[1])
+    maps[candidate, landmark] = fuse_batched(rounds, pose_covs[None], maps[candidate, landmark])[0]
