@@ -43,10 +43,13 @@ from explore_rl.planning.config import EMConfig, PlanningConfig
 from explore_rl.planning.em_fast import (
     PLANAR,
     FastContext,
+    FuseRounds,
     batch_observations,
+    distinct,
     fast_world_covariances,
     fuse_batched,
     loop_update,
+    step_tangent_covariances,
 )
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.reward import normalize_rewards, raw_reward
@@ -54,6 +57,7 @@ from explore_rl.planning.revisits import Revisit
 from explore_rl.planning.virtual_map import (
     VirtualMap,
     fuse_in_order,
+    lever_and_noise,
     measurement_noise,
     range_bearing_jacobians,
 )
@@ -234,6 +238,19 @@ class Observations:
         noise = h_l_inv @ measurement_noise(vmap.config) @ np.swapaxes(h_l_inv, 1, 2)
         return cls(pose_idx, landmark_idx, h_l_inv @ h_x, noise)
 
+    @classmethod
+    def closed_form(cls, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray,
+                    landmark_idx: np.ndarray) -> Observations:
+        """:meth:`of_pairs` in closed form (``virtual_map.lever_and_noise``; equal to
+        round-off): gains exactly ``[-I | lever]``, which the fast backend's fusion
+        (:func:`~explore_rl.planning.em_fast.lever_terms`) relies on."""
+        lever, noise = lever_and_noise(poses[pose_idx], vmap.landmark_xy[landmark_idx], vmap.config)
+        gain = np.zeros((len(pose_idx), 2, 3))
+        gain[:, 0, 0] = gain[:, 1, 1] = -1.0
+        gain[:, :, 2] = lever
+        n00, n01, n11 = noise
+        return cls(pose_idx, landmark_idx, gain, np.stack([np.stack([n00, n01], -1), np.stack([n01, n11], -1)], -2))
+
     def subset(self, rows: np.ndarray) -> Observations:
         """The observations selected by ``rows`` (a mask or indices), order kept."""
         return Observations(self.pose_idx[rows], self.landmark_idx[rows], self.gain[rows], self.noise[rows])
@@ -286,7 +303,7 @@ class ObservationCache:
         """:meth:`Observations.of` ``(vmap, poses, blocked)``, reusing what still holds."""
         keep = self.unmoved(vmap, poses, blocked)
         fresh = np.flatnonzero(~keep)
-        pose_idx, landmark_idx = vmap.visible_pairs(poses[fresh], blocked)
+        pose_idx, landmark_idx = vmap.visible_pairs(poses[fresh], blocked, by_length=True)
         fresh_pairs = (fresh[pose_idx], landmark_idx)
         kept_pairs = self.kept_pairs(vmap, np.flatnonzero(keep), blocked)
         pose_idx = np.concatenate([fresh_pairs[0], kept_pairs[0]])
@@ -326,7 +343,7 @@ class ObservationCache:
             visible = self.was_visible(vmap, retest, owner, in_range)
             touched = _any_in_boxes(changed, vmap.grid, self.xy[owner], vmap.landmark_xy[in_range],
                                   vmap.grid.resolution)
-            visible[touched] = vmap.line_of_sight(self.xy[owner[touched]], in_range[touched], blocked)
+            visible[touched] = vmap.line_of_sight(self.xy[owner[touched]], in_range[touched], blocked, by_length=True)
             pose_idx.append(owner[visible])
             landmark_idx.append(in_range[visible])
         return np.concatenate(pose_idx), np.concatenate(landmark_idx)
@@ -344,7 +361,7 @@ class ObservationCache:
     def jacobians(self, vmap: VirtualMap, poses: np.ndarray, pose_idx: np.ndarray, landmark_idx: np.ndarray,
                   keep: np.ndarray) -> Observations:
         """The observations of the pairs: Jacobians copied for the unmoved keyframes'
-        previously visible pairs, computed (:meth:`Observations.of_pairs`) for the rest."""
+        previously visible pairs, computed (:meth:`Observations.closed_form`) for the rest."""
         gain = np.empty((len(pose_idx), 2, 3))
         noise = np.empty((len(pose_idx), 2, 2))
         copied = keep[pose_idx]
@@ -358,7 +375,7 @@ class ObservationCache:
             rows = np.flatnonzero(copied)
             gain[rows[hit]], noise[rows[hit]] = old.gain[found[hit]], old.noise[found[hit]]
             copied[rows[~hit]] = False
-        computed = Observations.of_pairs(vmap, poses, pose_idx[~copied], landmark_idx[~copied])
+        computed = Observations.closed_form(vmap, poses, pose_idx[~copied], landmark_idx[~copied])
         gain[~copied], noise[~copied] = computed.gain, computed.noise
         return Observations(pose_idx, landmark_idx, gain, noise)
 
@@ -398,9 +415,8 @@ def fused_map(fast: FastContext, observations: Observations, pose_covs: np.ndarr
     decision's fusion rounds: :meth:`Observations.fuse` for all sets in one pass)."""
     maps = np.repeat(prior[None], len(pose_covs), axis=0)
     if len(observations.pose_idx):
-        rounds = fast.rounds_of(observations.landmark_idx)
-        maps[:, rounds.landmarks] = fuse_batched(rounds, observations.pose_idx, observations.gain,
-                                                 observations.noise, pose_covs, prior[rounds.landmarks])
+        rounds = fast.rounds_of(observations)
+        maps[:, rounds.landmarks] = fuse_batched(rounds, pose_covs, prior[rounds.landmarks])
     return maps
 
 
@@ -471,8 +487,11 @@ def make_decision_context(state: ExplorationState, vmap: VirtualMap, backend: st
     blocked = session.occupancy.known_occupied
     poses = graph.poses_se2()
     pose_covs, fast = pose_covariances(graph, poses, backend)
-    observations = (Observations.of(vmap, poses, blocked) if cache is None
-                    else cache.observations_of(vmap, poses, blocked))
+    if cache is not None:
+        observations = cache.observations_of(vmap, poses, blocked)
+    else:  # the fast fusion reads the closed form's exact [-I | lever] gains
+        observe = Observations.of_pairs if fast is None else Observations.closed_form
+        observations = observe(vmap, poses, *vmap.visible_pairs(poses, blocked, by_length=fast is not None))
     landmark_covs = (observations.fuse(vmap.prior_covariances(), pose_covs) if fast is None
                      else fused_map(fast, observations, pose_covs[None], vmap.prior_covariances())[0])
     keyframe_travel = np.array([k.travel for k in session.keyframes], dtype=float)
@@ -610,24 +629,24 @@ class EMPlanner:
             maps[loop], loop_covs = self.loop_maps(context, [paths[i] for i in loop])
             for i, covs in zip(loop, loop_covs):
                 new_covs[i] = covs
-        fuse_each(maps, self.new_observations(context, paths), new_covs)
+        fuse_each(maps, self.new_observations(context, paths), np.concatenate(new_covs))
         u_after[moving] = [context.vmap.utility(covs) for covs in maps]
         return u_after
 
-    def new_observations(self, context: DecisionContext, predicted: list[PredictedPath]) -> list[Observations]:
-        """What each candidate's predicted keyframes see: one line-of-sight batch for the
-        distinct poses of all candidates, one Jacobian batch for all pairs."""
+    def new_observations(self, context: DecisionContext, predicted: list[PredictedPath]) -> Observations:
+        """What the candidates' predicted keyframes see, all in one (one line-of-sight batch
+        for the distinct poses of all candidates, one Jacobian batch for all pairs): pose
+        ``i`` is row ``i`` of the candidates' poses stacked, landmark ``k L + l`` is
+        landmark ``l`` of candidate ``k``'s map (``L`` landmarks)."""
         visible = batch_observations(context.vmap, [p.poses for p in predicted], context.blocked)
-        sizes = np.array([len(p) for p in predicted])
-        offsets = np.r_[0, np.cumsum(sizes)]
+        offsets = np.r_[0, np.cumsum([len(p) for p in predicted])]
         poses = np.concatenate([p.poses for p in predicted])
         pose_idx = np.concatenate([pairs[0] + offset for pairs, offset in zip(visible, offsets)])
         landmark_idx = np.concatenate([pairs[1] for pairs in visible])
-        everything = Observations.of_pairs(context.vmap, poses, pose_idx, landmark_idx)
-        bounds = np.cumsum([len(pairs[0]) for pairs in visible])[:-1]
-        return [Observations(pairs[0], *parts) for pairs, *parts in zip(
-            visible, np.split(everything.landmark_idx, bounds), np.split(everything.gain, bounds),
-            np.split(everything.noise, bounds))]
+        observations = Observations.closed_form(context.vmap, poses, pose_idx, landmark_idx)
+        candidate = np.repeat(np.arange(len(predicted)), [len(pairs[0]) for pairs in visible])
+        return Observations(pose_idx, candidate * context.vmap.num_landmarks + landmark_idx, observations.gain,
+                            observations.noise)
 
     def loop_maps(self, context: DecisionContext,
                   predicted: list[PredictedPath]) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -639,20 +658,23 @@ class EMPlanner:
         revisited = {r.keyframe_index for p in predicted for r in p.revisits}
         dims = list(PLANAR) if context.fast.decoupled else list(range(6))
         context.fast.cross(sorted(revisited) + [len(context.poses) - 1], dims, dims)  # one solve for all
-        covs = [loop_update(context, context.fast, p, context.graph, self.em, ssm, loop) for p in predicted]
-        maps = fused_map(context.fast, context.observations, np.stack([c.old for c in covs]),
-                         context.vmap.prior_covariances())
-        return maps, [c.new for c in covs]
+        steps = step_tangent_covariances(context.graph, np.concatenate([p.steps for p in predicted]), ssm)
+        bounds = np.cumsum([len(p) for p in predicted])[:-1]
+        covs = [loop_update(context, context.fast, p, s, loop) for p, s in zip(predicted, np.split(steps, bounds))]
+        # candidates whose paths share everything up to their last loop leave the same old
+        # covariances (about a third on office decisions): fuse each distinct set once
+        unique, inverse = distinct(np.stack([c.old for c in covs]))
+        maps = fused_map(context.fast, context.observations, unique, context.vmap.prior_covariances())
+        return maps[inverse], [c.new for c in covs]
 
 
-def fuse_each(maps: np.ndarray, observations: list[Observations], pose_covs: list[np.ndarray]) -> None:
-    """Fuse ``observations[k]`` (pose covariances ``pose_covs[k]``) into ``maps[k]`` in place
-    for every ``k``: :meth:`Observations.fuse` of each, in one pass (a landmark of map ``k``
-    is its own sequence, fused in the same order)."""
-    num_landmarks = maps.shape[1]
-    landmark_idx = np.concatenate([k * num_landmarks + o.landmark_idx for k, o in enumerate(observations)])
-    if not len(landmark_idx):
+def fuse_each(maps: np.ndarray, observations: Observations, pose_covs: np.ndarray) -> None:
+    """Fuse the candidates' new ``observations`` (:meth:`EMPlanner.new_observations`: pose
+    covariances ``pose_covs (P, 3, 3)``, landmark ``k L + l`` of map ``k``) into ``maps (C,
+    L, 2, 2)`` in place: :meth:`Observations.fuse` of each candidate's, in one pass of
+    :func:`fuse_batched` rounds (a landmark of map ``k`` is its own sequence, same order)."""
+    if not len(observations.landmark_idx):
         return
-    observed = np.concatenate([o.landmark_covariances(c) for o, c in zip(observations, pose_covs)])
-    flat = maps.reshape(-1, 2, 2)
-    fuse_in_order(flat, landmark_idx, observed)
+    rounds = FuseRounds.of(observations)
+    candidate, landmark = np.divmod(rounds.landmarks, maps.shape[1])
+    maps[candidate, landmark] = fuse_batched(rounds, pose_covs[None], maps[candidate, landmark])[0]

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from explore_rl.grid import GridSpec
-from explore_rl.mapping.visibility import line_of_sight
+from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.planning.config import VirtualMapConfig
 
 # ---------------------------------------------------------------------------- 2x2 algebra
@@ -130,13 +130,7 @@ def range_bearing_jacobians(
     bearing; a landmark exactly at the pose gets bearing +x) so nothing blows up at zero.
     """
     pose, landmark_xy = np.asarray(pose, float), np.asarray(landmark_xy, float)
-    d = landmark_xy - pose[..., :2]
-    r = np.hypot(d[..., 0], d[..., 1])
-    r_eff = np.maximum(r, min_range)
-    safe_r = np.where(r > 0, r, 1.0)
-    ux = np.where(r > 0, d[..., 0] / safe_r, 1.0)
-    uy = np.where(r > 0, d[..., 1] / safe_r, 0.0)
-    dx, dy = ux * r_eff, uy * r_eff
+    ux, uy, dx, dy, r_eff = _clamped_offsets(pose, landmark_xy, min_range)
     r2 = r_eff * r_eff
     shape = np.broadcast_shapes(pose.shape[:-1], landmark_xy.shape[:-1])
     h_x = np.zeros(shape + (2, 3))
@@ -151,6 +145,34 @@ def range_bearing_jacobians(
     h_l[..., 1, 0] = ux
     h_l[..., 1, 1] = uy
     return h_x, h_l
+
+
+def _clamped_offsets(pose: np.ndarray, landmark_xy: np.ndarray, min_range: float) -> tuple[np.ndarray, ...]:
+    """``(ux, uy, dx, dy, r_eff)``: the direction from each pose to its landmark and the
+    offset ``(dx, dy) = r_eff u`` with the range clamped below at ``min_range`` (a landmark
+    exactly at the pose gets direction +x)."""
+    d = landmark_xy - pose[..., :2]
+    r = np.hypot(d[..., 0], d[..., 1])
+    r_eff = np.maximum(r, min_range)
+    safe_r = np.where(r > 0, r, 1.0)
+    ux = np.where(r > 0, d[..., 0] / safe_r, 1.0)
+    uy = np.where(r > 0, d[..., 1] / safe_r, 0.0)
+    return ux, uy, ux * r_eff, uy * r_eff, r_eff
+
+
+def lever_and_noise(pose: np.ndarray, landmark_xy: np.ndarray,
+                    config: VirtualMapConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The observation of :func:`landmark_covariance_from_pose` in closed form:
+    ``H_l^-1 H_x = [-I | lever]`` (the landmark moves with the pose's position, and by
+    ``lever = (dy, -dx)`` per radian of yaw) and ``H_l^-1 R H_l^-T`` as its components
+    ``(n00, n01, n11)`` (``H_l^-1 = [[-dy, ux], [dx, uy]]``). Returns ``lever (..., 2)``
+    and ``noise (3, ...)``: the same as the batched inverse and products, to round-off,
+    for a fraction of their cost."""
+    ux, uy, dx, dy, _ = _clamped_offsets(np.asarray(pose, float), np.asarray(landmark_xy, float), config.min_range)
+    r = measurement_noise(config)
+    s_b, s_r = r[0, 0], r[1, 1]
+    noise = np.stack([s_b * dy * dy + s_r * ux * ux, s_r * ux * uy - s_b * dx * dy, s_b * dx * dx + s_r * uy * uy])
+    return np.stack([dy, -dx], axis=-1), noise
 
 
 def measurement_noise(config: VirtualMapConfig) -> np.ndarray:
@@ -222,16 +244,17 @@ class VirtualMap:
         return np.stack([diy.ravel(), dix.ravel()], axis=-1)
 
     def visible_pairs(
-        self, poses: np.ndarray, blocked: np.ndarray
+        self, poses: np.ndarray, blocked: np.ndarray, by_length: bool = False
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(pose_index, landmark_index)`` of every landmark a pose observes, in pose order.
 
         Observed = within ``sensor_range`` and in line of sight (known-occupied cells of
         ``blocked`` block, except inside the landmark's own cell; unknown cells do not).
+        ``by_length``: see :meth:`line_of_sight`.
         """
         poses = np.asarray(poses, float).reshape(-1, 3)
         pose_idx, landmark_idx = self.in_range_pairs(poses)
-        visible = self.line_of_sight(poses[pose_idx], landmark_idx, blocked)
+        visible = self.line_of_sight(poses[pose_idx], landmark_idx, blocked, by_length)
         return pose_idx[visible], landmark_idx[visible]
 
     def in_range_pairs(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -246,10 +269,14 @@ class VirtualMap:
         pose_idx, slot = np.nonzero(inside & (dist <= self.config.sensor_range))
         return pose_idx, index[pose_idx, slot]
 
-    def line_of_sight(self, poses: np.ndarray, landmark_idx: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+    def line_of_sight(self, poses: np.ndarray, landmark_idx: np.ndarray, blocked: np.ndarray,
+                      by_length: bool = False) -> np.ndarray:
         """``(M,)``: whether each pose (``(M, 2)`` or ``(M, 3)``) sees its landmark past the
-        known-occupied cells of ``blocked`` (:meth:`visible_pairs`)."""
-        return line_of_sight(
+        known-occupied cells of ``blocked`` (:meth:`visible_pairs`). ``by_length``: the same
+        answers from :func:`~explore_rl.mapping.visibility.line_of_sight_by_length` (segments
+        far from any blocked cell unsampled; EM's fast backend), else from ``line_of_sight``."""
+        visibility = line_of_sight_by_length if by_length else line_of_sight
+        return visibility(
             np.asarray(poses, float)[:, :2],
             self.landmark_xy[landmark_idx],
             blocked,

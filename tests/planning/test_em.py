@@ -278,6 +278,29 @@ def test_evaluate_returns_aligned_terms_and_respects_the_cap():
 # ---------------------------------------------------------------------- observations carried over
 
 
+def fresh_observations(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray) -> Observations:
+    """What the cache must return: every visible pair's observation in closed form."""
+    return Observations.closed_form(vmap, poses, *vmap.visible_pairs(poses, blocked))
+
+
+def test_closed_form_observations_equal_the_jacobian_products():
+    """``Observations.closed_form`` (the fast backend's) = ``of_pairs`` (the reference's
+    inverse and products) to round-off, the gains exactly ``[-I | lever]``; near the pose
+    the range clamp holds in both."""
+    rng = np.random.default_rng(5)
+    vmap = VirtualMap(GRID)
+    poses = np.column_stack([rng.uniform(2, 18, 30), rng.uniform(2, 18, 30), rng.uniform(-3, 3, 30)])
+    poses[0, :2] = vmap.landmark_xy[vmap.landmark_index(poses[0, :2])]  # exactly on a landmark
+    pose_idx, landmark_idx = vmap.in_range_pairs(poses)
+    closed = Observations.closed_form(vmap, poses, pose_idx, landmark_idx)
+    products = Observations.of_pairs(vmap, poses, pose_idx, landmark_idx)
+    np.testing.assert_array_equal(closed.gain[:, :, :2], np.broadcast_to(-np.eye(2), (len(pose_idx), 2, 2)))
+    np.testing.assert_allclose(closed.gain, products.gain, rtol=0, atol=1e-14)
+    scale = np.abs(products.noise).max()
+    np.testing.assert_allclose(closed.noise / scale, products.noise / scale, rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(closed.noise, np.swapaxes(closed.noise, 1, 2))
+
+
 def assert_same_observations(actual: Observations, expected: Observations) -> None:
     np.testing.assert_array_equal(actual.pose_idx, expected.pose_idx)
     np.testing.assert_array_equal(actual.landmark_idx, expected.landmark_idx)
@@ -306,7 +329,7 @@ def test_observation_cache_equals_fresh_observations_as_keyframes_move_and_walls
             poses = np.vstack([poses, [[10.0, 10.0, 0.0], [10.5, 10.0, 0.0], [11.0, 10.0, 0.0]]])
         if step == 4:  # keyframes land next to the new wall cells
             poses[:3, :2] = [[10.2, 10.0], [9.8, 9.7], [10.0, 10.4]]
-        expected = Observations.of(vmap, poses, blocked)
+        expected = fresh_observations(vmap, poses, blocked)
         assert_same_observations(cache.observations_of(vmap, poses, blocked), expected)
         steps.append(len(expected.pose_idx))
     assert min(steps) > 1000  # the keyframes see many landmarks
@@ -321,13 +344,13 @@ def test_observation_cache_keeps_what_it_can():
     cache = ObservationCache()
     cache.observations_of(vmap, poses, blocked)
     blocked[150:, 190] = True  # a change within reach of the second keyframe only
-    expected = Observations.of(vmap, poses, blocked)
+    expected = fresh_observations(vmap, poses, blocked)
     tested = []
     original = vmap.line_of_sight
 
-    def counting(xy, landmark_idx, grid_blocked):
+    def counting(xy, landmark_idx, grid_blocked, by_length=False):
         tested.append(np.asarray(xy)[:, :2].copy())
-        return original(xy, landmark_idx, grid_blocked)
+        return original(xy, landmark_idx, grid_blocked, by_length)
 
     vmap.line_of_sight = counting
     assert_same_observations(cache.observations_of(vmap, poses, blocked), expected)

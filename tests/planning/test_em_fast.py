@@ -21,8 +21,14 @@ import pytest
 from explore_rl.config import load_config
 from explore_rl.geometry import se2_to_matrix
 from explore_rl.planning.config import EMConfig
-from explore_rl.planning.em import EMPlanner, ssm_covariance
+from explore_rl.planning.em import EMPlanner, Observations, ssm_covariance
 from explore_rl.planning.em_fast import (
+    FuseRounds,
+    covariances_of,
+    distinct,
+    fuse_batched,
+    intersect,
+    lever_terms,
     observed_information,
     planar_adjoint,
     planar_adjoint_inverse,
@@ -30,6 +36,7 @@ from explore_rl.planning.em_fast import (
     world_from_tangent,
 )
 from explore_rl.planning.policies import PolicyConfig
+from explore_rl.planning.virtual_map import covariance_intersection
 from explore_rl.runner import Explorer
 from explore_rl.slam.pose_graph import odometry_covariance
 from tests.planning.test_em import planner, tour_state
@@ -63,18 +70,77 @@ def test_world_from_tangent_matches_the_pose_graph():
     np.testing.assert_allclose(world_from_tangent(tangent, poses), expected, rtol=1e-12, atol=1e-15)
 
 
+def lever_observations(rng, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Random gains ``[-I | lever]`` and symmetric positive noises ``(count, 2, 2)``."""
+    gain = np.zeros((count, 2, 3))
+    gain[:, 0, 0] = gain[:, 1, 1] = -1.0
+    gain[:, :, 2] = rng.uniform(-3, 3, (count, 2))
+    root = rng.normal(size=(count, 2, 2)) * 1e-2
+    return gain, root @ np.swapaxes(root, 1, 2) + 1e-6 * np.eye(2)
+
+
+def random_covariances(rng, *shape: int) -> np.ndarray:
+    a = rng.normal(size=shape + (3, 3)) * 0.1
+    return a @ np.swapaxes(a, -1, -2) + 1e-4 * np.eye(3)
+
+
 def test_observed_information_inverts_noise_plus_gain_covariance_gain():
     rng = np.random.default_rng(1)
-    gain = rng.normal(size=(50, 2, 3))
-    a = rng.normal(size=(4, 20, 3, 3))
-    covs = a @ np.swapaxes(a, -1, -2)  # (C, N, 3, 3)
-    noise = np.diag([1e-4, 4e-4]) * np.ones((50, 1, 1))
-    pose_idx = rng.integers(0, 20, 50)
-    info = observed_information(gain, noise, covs, pose_idx)  # (3, M, C)
+    gain, noise = lever_observations(rng, 5000)  # more than one chunk
+    covs = random_covariances(rng, 4, 20)  # (C, N, 3, 3)
+    pose_idx = rng.integers(0, 20, 5000)
+    info = observed_information(lever_terms(gain, noise), covs, pose_idx)  # (4, M, C)
     expected = np.linalg.inv(noise + gain @ covs[:, pose_idx] @ np.swapaxes(gain, 1, 2))  # (C, M, 2, 2)
     np.testing.assert_allclose(info[0].T, expected[..., 0, 0], rtol=1e-9)
     np.testing.assert_allclose(info[1].T, expected[..., 0, 1], rtol=1e-9)
     np.testing.assert_allclose(info[2].T, expected[..., 1, 1], rtol=1e-9)
+    np.testing.assert_array_equal(info[3], 2.0 * info[1])
+
+
+def test_a_round_of_intersection_is_the_covariance_intersection():
+    """``intersect`` (in place, endpoint from ``lin + quad``) = ``covariance_intersection``:
+    concave and convex quadratics, a dominated observation, an identical one."""
+    rng = np.random.default_rng(2)
+    a = np.linalg.inv(random_covariances(rng, 400)[:, :2, :2])
+    b = np.linalg.inv(random_covariances(rng, 400)[:, :2, :2])
+    b[0] = 0.5 * a[0]  # dominated: w = 1
+    b[1] = a[1]  # identical: any w
+    b[2] = 3.0 * a[2]  # dominates: w = 0
+    expected, w = covariance_intersection(np.linalg.inv(a), np.linalg.inv(b))
+    assert np.any(w == 0.0) and np.any(w == 1.0) and np.any((w > 0) & (w < 1))
+    info = np.stack([a[:, 0, 0], a[:, 0, 1], a[:, 1, 1]])
+    observed = np.stack([b[:, 0, 0], b[:, 0, 1], b[:, 1, 1], 2.0 * b[:, 0, 1]])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        intersect(info, observed)
+    fused, reference = np.linalg.inv(covariances_of(info)), np.linalg.inv(expected)
+    scale = np.abs(reference).max(axis=(1, 2), keepdims=True)  # round-off relative to each matrix
+    np.testing.assert_allclose(fused / scale, reference / scale, rtol=0, atol=1e-12)
+
+
+def test_batched_fusion_is_the_fusion_in_order_of_each_set():
+    """``fuse_batched`` over ``C`` sets of pose covariances = ``fuse_in_order`` per set."""
+    rng = np.random.default_rng(3)
+    count, poses, landmarks = 3000, 40, 60
+    gain, noise = lever_observations(rng, count)
+    pose_idx = np.sort(rng.integers(0, poses, count))
+    observations = Observations(pose_idx, rng.integers(0, landmarks, count), gain, noise)
+    covs = random_covariances(rng, 3, poses)
+    prior = np.repeat(0.04 * np.eye(2)[None], landmarks, axis=0)
+    rounds = FuseRounds.of(observations)
+    fused = fuse_batched(rounds, covs, prior[rounds.landmarks])
+    for k in range(len(covs)):
+        expected = observations.fuse(prior, covs[k])
+        np.testing.assert_allclose(fused[k], expected[rounds.landmarks], rtol=1e-9)
+
+
+def test_distinct_finds_bitwise_copies():
+    rng = np.random.default_rng(4)
+    a, b = rng.normal(size=(2, 5, 3, 3))
+    near = a.copy()
+    near[0, 0, 0] = np.nextafter(near[0, 0, 0], np.inf)  # one ulp away: not a copy
+    unique, inverse = distinct(np.stack([a, b, a, near, b]))
+    np.testing.assert_array_equal(inverse, [0, 1, 0, 2, 1])
+    np.testing.assert_array_equal(unique, np.stack([a, b, near]))
 
 
 def test_step_noise_is_odometry_and_scan_matching_fused():
@@ -144,8 +210,9 @@ def test_a_coupling_update_on_a_planar_context_uses_the_full_factorisation():
     full = FastContext.of(state.session.graph, planar=False)
     assert planar.decoupled and not full.decoupled
     ssm = ssm_covariance(em.em)
-    got = loop_update(context, planar, looping, state.session.graph, em.em, ssm, coupled)
-    expected = loop_update(context, full, looping, state.session.graph, em.em, ssm, coupled)
+    steps = step_tangent_covariances(state.session.graph, looping.steps, ssm)
+    got = loop_update(context, planar, looping, steps, coupled)
+    expected = loop_update(context, full, looping, steps, coupled)
     assert planar._full is not None  # the switch happened
     np.testing.assert_allclose(got.old, expected.old, rtol=1e-10, atol=1e-14)
     np.testing.assert_allclose(got.new, expected.new, rtol=1e-10, atol=1e-14)

@@ -207,6 +207,21 @@ def test_predicted_map_matches_reference_loop():
     )
 
 
+def test_visible_pairs_by_length_are_the_same_pairs():
+    """EM's fast backend tests line of sight by length (segments far from walls unsampled):
+    the same pairs as the reference's test, walls near and far."""
+    grid, blocked = wall_grid()
+    rng = np.random.default_rng(8)
+    blocked[rng.integers(0, grid.ny, 40), rng.integers(0, grid.nx, 40)] = True  # scattered cells
+    poses = np.column_stack([rng.uniform(0, grid.nx * grid.resolution, 30),
+                             rng.uniform(0, grid.ny * grid.resolution, 30), rng.uniform(-3, 3, 30)])
+    vm = VirtualMap(grid, CFG)
+    expected = vm.visible_pairs(poses, blocked)
+    assert 0 < len(expected[0]) < len(vm.in_range_pairs(poses)[0])  # some pairs blocked, some seen
+    for got, want in zip(vm.visible_pairs(poses, blocked, by_length=True), expected):
+        np.testing.assert_array_equal(got, want)
+
+
 def test_utility_drops_with_more_and_better_observations():
     grid = GridSpec((0.0, 0.0), 0.1, (200, 200))
     blocked = np.zeros(grid.shape, dtype=bool)
