@@ -58,7 +58,7 @@ from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.em import Observations, pose_covariances
 from explore_rl.planning.em_fast import PLANAR, world_from_tangent
 from explore_rl.planning.policies import PolicyConfig
-from explore_rl.planning.virtual_map import VirtualMap, fuse_in_order, measurement_noise
+from explore_rl.planning.virtual_map import VirtualMap, fuse_in_order, lever_and_noise
 from explore_rl.slam.marginals import BLOCK, DepthMarginals, information_from_jacobian, planar_blocks
 
 if TYPE_CHECKING:
@@ -95,27 +95,18 @@ def observed_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
                          landmark_idx: np.ndarray) -> np.ndarray:
     """``(M, 2, 2)``: the covariance of landmark ``landmark_idx[m]`` as seen from pose
     ``pose_idx[m]`` -- :meth:`~explore_rl.planning.em.Observations.landmark_covariances`
-    (``H_l^-1 (R + H_x S H_x^T) H_l^-T``) in closed form: with ``(dx, dy)`` the
-    (range-clamped) offset to the landmark and ``u`` its direction, ``H_l^-1 H_x =
-    [[-1, 0, dy], [0, -1, -dx]]`` (the landmark moves with the pose) and ``H_l^-1 R H_l^-T
-    = s_b^2 (-dy, dx)(-dy, dx)^T + s_r^2 u u^T`` -- elementwise, without the ~4 batched
-    2x2/2x3 products and inverses per observation (equal up to round-off)."""
-    config = vmap.config
-    d = vmap.landmark_xy[landmark_idx] - poses[pose_idx, :2]
-    r = np.hypot(d[:, 0], d[:, 1])  # as range_bearing_jacobians: clamped range, bearing +x at zero
-    r_eff = np.maximum(r, config.min_range)
-    safe_r = np.where(r > 0, r, 1.0)
-    ux = np.where(r > 0, d[:, 0] / safe_r, 1.0)
-    uy = np.where(r > 0, d[:, 1] / safe_r, 0.0)
-    dx, dy = ux * r_eff, uy * r_eff
-    noise = measurement_noise(config)
-    s_b, s_r = noise[0, 0], noise[1, 1]
+    (``H_l^-1 (R + H_x S H_x^T) H_l^-T``) in closed form: ``H_l^-1 H_x = [-I | (a, b)]`` and
+    the noise's three components from :func:`~explore_rl.planning.virtual_map.lever_and_noise`
+    (the landmark moves with the pose), so ``gain S gain^T`` is elementwise -- without the
+    ~4 batched 2x2/2x3 products and inverses per observation (equal up to round-off)."""
+    lever, (n00, n01, n11) = lever_and_noise(poses[pose_idx], vmap.landmark_xy[landmark_idx], vmap.config)
+    a, b = lever[:, 0], lever[:, 1]
     s = pose_covs[pose_idx]
     sxx, sxy, sxt, syy, syt, stt = s[:, 0, 0], s[:, 0, 1], s[:, 0, 2], s[:, 1, 1], s[:, 1, 2], s[:, 2, 2]
-    covs = np.empty((len(r), 2, 2))
-    covs[:, 0, 0] = s_b * dy * dy + s_r * ux * ux + sxx - 2.0 * dy * sxt + dy * dy * stt
-    covs[:, 0, 1] = covs[:, 1, 0] = (-s_b * dx * dy + s_r * ux * uy + sxy - dy * syt + dx * sxt - dx * dy * stt)
-    covs[:, 1, 1] = s_b * dx * dx + s_r * uy * uy + syy + 2.0 * dx * syt + dx * dx * stt
+    covs = np.empty((len(a), 2, 2))
+    covs[:, 0, 0] = n00 + sxx - 2.0 * a * sxt + a * a * stt
+    covs[:, 0, 1] = covs[:, 1, 0] = n01 + sxy - b * sxt - a * syt + a * b * stt
+    covs[:, 1, 1] = n11 + syy - 2.0 * b * syt + b * b * stt
     return covs
 
 
