@@ -174,7 +174,7 @@ def ordering(runs: list[dict], plans: dict[int, dict]) -> dict:
         # at equal coverage (the least any policy reached): the travel each needed, its error then
         row["coverage"] = min(run["explored"] for run in good.values())
         for policy, run in good.items():
-            reached = travel_to_reach(run, row["coverage"])
+            reached = comparison.travel_to_reach(run, row["coverage"])
             row[f"travel_to_coverage_{policy}"] = reached
             row[f"map_error_at_coverage_{policy}"] = comparison.value_at_travel(run, "map_error_m", reached)
         at_coverage = {p: row[f"map_error_at_coverage_{p}"] for p in ("em", "nearest", "random")}
@@ -188,19 +188,6 @@ def ordering(runs: list[dict], plans: dict[int, dict]) -> dict:
                        for flag in flags} | {"buildings": sum((row["loops"] > 0) == (kind == "loops") for row in rows)}
                 for kind in ("loops", "tree")}
     return {"buildings": len(rows), "counts": counts, "by_loops": by_loops, "rows": rows}
-
-
-def travel_to_reach(run: dict, coverage: float) -> float:
-    """Travel (m) at which ``run`` first explored ``coverage``, interpolated between decisions."""
-    travel = np.array([0.0] + [row["travel_m"] for row in run["rows"]])
-    explored = np.maximum.accumulate(np.array([0.0] + [row["explored"] for row in run["rows"]]))
-    index = int(np.searchsorted(explored, coverage - 1e-12))
-    if index >= len(explored):
-        return float(travel[-1])
-    if index == 0 or explored[index] == explored[index - 1]:
-        return float(travel[index])
-    share = (coverage - explored[index - 1]) / (explored[index] - explored[index - 1])
-    return float(travel[index - 1] + share * (travel[index] - travel[index - 1]))
 
 
 def ordering_markdown(result: dict) -> str:

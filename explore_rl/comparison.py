@@ -249,6 +249,20 @@ def value_at_travel(run: dict, metric: str, travel: float) -> float:
     return float(np.interp(travel, distances, [row[metric] for row in run["rows"]]))
 
 
+def travel_to_reach(run: dict, coverage: float) -> float:
+    """Travel (m) at which one trial first explored ``coverage``, interpolated between its
+    decisions (from 0 m and 0 % at the start); its final travel if it never got there."""
+    travel = np.array([0.0] + [row["travel_m"] for row in run["rows"]])
+    explored = np.maximum.accumulate(np.array([0.0] + [row["explored"] for row in run["rows"]]))
+    index = int(np.searchsorted(explored, coverage - 1e-12))
+    if index >= len(explored):
+        return float(travel[-1])
+    if index == 0 or explored[index] == explored[index - 1]:
+        return float(travel[index])
+    share = (coverage - explored[index - 1]) / (explored[index] - explored[index - 1])
+    return float(travel[index - 1] + share * (travel[index] - travel[index - 1]))
+
+
 def matched_travel(runs: Sequence[dict], reference: str = "em", metric: str = "map_error_m") -> list[dict]:
     """Per scene, every policy's ``metric`` (mean and std over trials) at the ``reference``
     policy's mean final travel: policies that stop after different distances compared at
@@ -394,6 +408,12 @@ def write_summary(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Pat
     table, matched, coverage = summarise(runs), matched_travel(runs), coverage_reached(runs)
     text = markdown_table(table) + ("\n" + matched_travel_markdown(matched) if matched else "")
     text += "\n" + coverage_markdown(coverage)
+    from explore_rl import zero_shot  # it reads trials with this module's helpers
+
+    targets = zero_shot.check_targets(runs)
+    if targets:
+        text += "\n" + zero_shot.targets_markdown(targets)
+        (out / "targets.json").write_text(json.dumps(zero_shot.targets_json(targets), indent=1))
     (out / "coverage.json").write_text(json.dumps(coverage, indent=1))
     (out / "summary.md").write_text(text)
     (out / "summary.json").write_text(json.dumps(table, indent=1))

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.benchmarks.smoke import run_script
+from tests.benchmarks.smoke import ROOT, run_script
 
 # script, extra arguments ({tmp} = the test's tmp dir), keys the JSON last line must hold
 SCRIPTS = [
@@ -43,6 +43,8 @@ SCRIPTS = [
     ("benchmarks/bench_drive.py", ["--profile", "{tmp}/drive_profile.txt"], ["drive_ms_per_decision", "drive_ms_per_decision_reference", "speedup",
                                        "max_abs_logodds_diff", "same_voxels", "same_explored", "profile"]),
     ("benchmarks/study_keyframes.py", [], ["table"]),
+    ("benchmarks/study_zero_shot.py", [str(ROOT / "benchmarks/results/zero_shot_v3_10"), "--out", "{tmp}/targets"],
+     ["reports"]),
     ("benchmarks/collect_decisions.py", ["--out", "{tmp}/decisions", "--set", "train.dataset_capacity=16"],
      ["decisions", "layouts", "tasks_done", "wall_s", "decisions_per_s", "decisions_per_s_per_worker"]),
     ("scripts/calibrate_loop_closures.py",
@@ -61,6 +63,7 @@ OUTPUTS = {
                                       "buildings/eval/ordering.json"],
     "benchmarks/study_ordering.py": ["ordering/ordering_table.md", "ordering/ordering_runs.jsonl",
                                      "ordering/ordering_street.png"],
+    "benchmarks/study_zero_shot.py": ["targets/zero_shot_v3_10/targets.md", "targets/zero_shot_v3_10/targets.json"],
     "scripts/calibrate_loop_closures.py": ["loop_closures.yaml", "attempts.csv"],
     "scripts/calibrate_scan_matching.py": ["scan_matching.yaml"],
 }

@@ -1,0 +1,209 @@
+"""Issue 24's zero-shot targets checked on an ``explore-rl-eval`` report, with intervals.
+
+The targets compare a policy (the learned one) with a reference (EM) on scenes neither was
+tuned on: its **travel to reach the stop coverage** at most ``max_travel_ratio`` times the
+reference's, its **map error at that point** at most ``max_error_ratio`` times the
+reference's, and its decisions at least ``min_speedup`` times faster. Map error alone does
+not rank policies (a policy that covers little keeps its error low), so every figure here
+is taken at the same coverage:
+
+* the **common coverage** of a scene: the stop coverage, or less if some trial of either
+  policy never got there (EM often does not within the travel budget), i.e. the least any
+  trial of the two explored, floored to a whole percent; every trial reached it;
+* per trial, the travel to reach it (:func:`comparison.travel_to_reach`) and the map error
+  there; the reference's map error also **at the policy's mean travel** (equal travel: the
+  comparison of "lower map error at the same distance");
+* ratios of means over trials, with 95 % percentile intervals from resampling each
+  policy's trials independently (the trials of two policies are separate explorations).
+  A target is met only when the whole interval is on the right side of it.
+
+Several scenes with one trial each (a sweep over generated buildings) are also pooled:
+the geometric mean of the per-scene ratios, the interval from resampling scenes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from explore_rl.comparison import travel_to_reach, value_at_travel
+
+RESAMPLES = 2000
+
+
+@dataclass(frozen=True)
+class ZeroShotTargets:
+    """The thresholds of issue 24's zero-shot target (travel and map error at the stop
+    coverage within 10 % of EM's, decisions 5x faster)."""
+
+    coverage: float = 0.85
+    max_travel_ratio: float = 1.1
+    max_error_ratio: float = 1.1
+    min_speedup: float = 5.0
+
+
+@dataclass(frozen=True)
+class TrialPoint:
+    """One trial at the common coverage: the travel to reach it, the map error there, the
+    mean decision time, and the trial's (travel, map error) rows for equal-travel reads."""
+
+    travel_m: float
+    map_error_m: float
+    ms_decide: float
+    run: dict
+
+
+def common_coverage(runs: Sequence[dict], target: float) -> float:
+    """``target``, or the least final coverage of any trial in ``runs`` if lower, floored
+    to a whole percent (so every trial reached it)."""
+    least = min(max(row["explored"] for row in run["rows"]) for run in runs)
+    return min(target, math.floor(100.0 * least + 1e-9) / 100.0)
+
+
+def trial_point(run: dict, coverage: float) -> TrialPoint:
+    travel = travel_to_reach(run, coverage)
+    return TrialPoint(travel, value_at_travel(run, "map_error_m", travel), float(run["ms_decide"]), run)
+
+
+def _ratios(policy: Sequence[TrialPoint], reference: Sequence[TrialPoint]) -> dict[str, float]:
+    """Travel, map-error, equal-travel map-error and decision-time ratios of two groups of trials."""
+    travel = float(np.mean([p.travel_m for p in policy]))
+    error = float(np.mean([p.map_error_m for p in policy]))
+    reference_at_travel = float(np.mean([value_at_travel(p.run, "map_error_m", travel) for p in reference]))
+    return {"travel_ratio": travel / float(np.mean([p.travel_m for p in reference])),
+            "error_ratio": error / float(np.mean([p.map_error_m for p in reference])),
+            "equal_travel_error_ratio": error / reference_at_travel,
+            "speedup": float(np.mean([p.ms_decide for p in reference])) / float(np.mean([p.ms_decide for p in policy]))}
+
+
+def _interval(draws: Sequence[dict[str, float]], key: str) -> list[float]:
+    values = np.array([d[key] for d in draws], dtype=float)
+    values = values[np.isfinite(values)]
+    if len(values) == 0:
+        return [float("nan"), float("nan")]
+    return [float(v) for v in np.percentile(values, [2.5, 97.5])]
+
+
+def _bootstrap(statistic: Callable[[np.random.Generator], dict[str, float]], resamples: int, seed: int
+               ) -> list[dict[str, float]]:
+    rng = np.random.default_rng(seed)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return [statistic(rng) for _ in range(resamples)]
+
+
+def _verdicts(entry: dict, targets: ZeroShotTargets) -> dict:
+    """A target is met only when its whole 95 % interval is on the right side (never
+    without an interval)."""
+    return {"travel_met": bool(entry["travel_ratio_ci95"][1] <= targets.max_travel_ratio),
+            "error_met": bool(entry["error_ratio_ci95"][1] <= targets.max_error_ratio),
+            "speed_met": bool(entry["speedup_ci95"][0] >= targets.min_speedup)}
+
+
+KEYS = ("travel_ratio", "error_ratio", "equal_travel_error_ratio", "speedup")
+
+
+def scene_check(runs: Sequence[dict], policy: str, reference: str, targets: ZeroShotTargets,
+                resamples: int = RESAMPLES, seed: int = 0) -> dict | None:
+    """The targets on one scene's trials; None if either policy has no finished trial."""
+    mine = [r for r in runs if r["policy"] == policy and r["status"] != "error" and r["rows"]]
+    theirs = [r for r in runs if r["policy"] == reference and r["status"] != "error" and r["rows"]]
+    if not mine or not theirs:
+        return None
+    coverage = common_coverage(mine + theirs, targets.coverage)
+    points = [trial_point(r, coverage) for r in mine]
+    reference_points = [trial_point(r, coverage) for r in theirs]
+    entry = {"scene": runs[0]["scene"], "policy": policy, "reference": reference, "coverage": coverage,
+             "at_stop_coverage": bool(coverage >= targets.coverage), "trials": len(points),
+             "reference_trials": len(reference_points),
+             "travel_m": float(np.mean([p.travel_m for p in points])),
+             "reference_travel_m": float(np.mean([p.travel_m for p in reference_points])),
+             "map_error_m": float(np.mean([p.map_error_m for p in points])),
+             "reference_map_error_m": float(np.mean([p.map_error_m for p in reference_points])),
+             **_ratios(points, reference_points)}
+    entry["reference_map_error_at_equal_travel_m"] = entry["map_error_m"] / entry["equal_travel_error_ratio"]
+
+    def resampled(rng: np.random.Generator) -> dict[str, float]:
+        return _ratios([points[i] for i in rng.integers(0, len(points), len(points))],
+                       [reference_points[i] for i in rng.integers(0, len(reference_points), len(reference_points))])
+
+    if min(len(points), len(reference_points)) < 2:  # one trial has no spread: no interval, no verdict
+        entry.update({f"{key}_ci95": [float("nan"), float("nan")] for key in KEYS})
+    else:
+        draws = _bootstrap(resampled, resamples, seed)
+        entry.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
+    return entry | _verdicts(entry, targets)
+
+
+def pooled_check(entries: Sequence[dict], targets: ZeroShotTargets, resamples: int = RESAMPLES,
+                 seed: int = 0) -> dict:
+    """The geometric mean of per-scene ratios over ``entries``, resampling scenes."""
+    logs = {key: np.log([e[key] for e in entries]) for key in KEYS}
+    pooled = {"scene": f"all {len(entries)} scenes", "policy": entries[0]["policy"],
+              "reference": entries[0]["reference"], "scenes": len(entries),
+              "at_stop_coverage": all(e["at_stop_coverage"] for e in entries),
+              **{key: float(np.exp(values.mean())) for key, values in logs.items()}}
+
+    def resampled(rng: np.random.Generator) -> dict[str, float]:
+        index = rng.integers(0, len(entries), len(entries))
+        return {key: float(np.exp(values[index].mean())) for key, values in logs.items()}
+
+    draws = _bootstrap(resampled, resamples, seed)
+    pooled.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
+    return pooled | _verdicts(pooled, targets)
+
+
+def check_targets(runs: Sequence[dict], policy: str = "learned", reference: str = "em",
+                  targets: ZeroShotTargets = ZeroShotTargets(), resamples: int = RESAMPLES) -> list[dict]:
+    """Per scene (and pooled over scenes when there are several), the zero-shot targets of
+    ``policy`` against ``reference``; empty if the report lacks either policy."""
+    entries = []
+    for scene in sorted({r["scene"] for r in runs}):
+        entry = scene_check([r for r in runs if r["scene"] == scene], policy, reference, targets, resamples)
+        if entry is not None:
+            entries.append(entry)
+    if len(entries) > 1:
+        entries.append(pooled_check(entries, targets, resamples))
+    return entries
+
+
+def _ratio_cell(entry: dict, key: str) -> str:
+    low, high = entry[f"{key}_ci95"]
+    interval = f" [{low:.2f}, {high:.2f}]" if np.isfinite(low) else " (one trial: no interval)"
+    return f"{entry[key]:.2f}{interval}"
+
+
+def targets_markdown(entries: Sequence[dict], targets: ZeroShotTargets = ZeroShotTargets()) -> str:
+    """:func:`check_targets` as a Markdown table with the verdicts."""
+    if not entries:
+        return ""
+    first = entries[0]
+    lines = [f"Zero-shot targets, {first['policy']} against {first['reference']} (ratios of means, 95 % "
+             f"intervals; met only if the whole interval is within: travel <= {targets.max_travel_ratio}x, "
+             f"map error <= {targets.max_error_ratio}x, decisions >= {targets.min_speedup}x faster):", "",
+             f"| scene | coverage % | travel m ({first['policy']} / {first['reference']}) | travel ratio | "
+             f"map error m ({first['policy']} / {first['reference']}) | map error ratio | "
+             f"{first['reference']} error at equal travel m | equal-travel error ratio | speedup | met |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for e in entries:
+        met = ", ".join(name for name, key in (("travel", "travel_met"), ("error", "error_met"),
+                                               ("speed", "speed_met")) if e[key]) or "none"
+        if not np.isfinite(e["travel_ratio_ci95"][0]):
+            met = "n/a"
+        if "coverage" in e:
+            coverage = f"{100 * e['coverage']:.0f}" + ("" if e["at_stop_coverage"] else " (below stop)")
+            travel = f"{e['travel_m']:.1f} / {e['reference_travel_m']:.1f}"
+            error = f"{e['map_error_m']:.3f} / {e['reference_map_error_m']:.3f}"
+            equal = f"{e['reference_map_error_at_equal_travel_m']:.3f}"
+        else:
+            coverage, travel, error, equal = "per scene", "", "", ""
+        lines.append(f"| {e['scene']} | {coverage} | {travel} | {_ratio_cell(e, 'travel_ratio')} | {error} | "
+                     f"{_ratio_cell(e, 'error_ratio')} | {equal} | {_ratio_cell(e, 'equal_travel_error_ratio')} | "
+                     f"{_ratio_cell(e, 'speedup')} | {met} |")
+    return "\n".join(lines) + "\n"
+
+
+def targets_json(entries: Sequence[dict], targets: ZeroShotTargets = ZeroShotTargets()) -> dict:
+    return {"targets": asdict(targets), "entries": list(entries)}
