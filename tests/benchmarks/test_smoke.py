@@ -24,6 +24,7 @@ SCRIPTS = [
     ("benchmarks/bench_env.py", [], ["decisions_per_s", "decisions_per_s_reference", "speedup", "same_em_choice",
                                      "reward_ms", "reward_ms_reference", "ms_context", "ms_graph", "ms_reward",
                                      "ms_drive", "ms_reward_reference", "ms_drive_reference", "max_nodes_seen",
+                                     "speedup_bound_em_free",
                                      "decisions_per_s_runner_em"]),
     ("benchmarks/bench_env.py", ["--profile"], ["fast", "reference"]),
     ("benchmarks/bench_explore.py", [], ["ms_per_decision", "ms_decide", "ms_drive", "keyframes_per_s",
