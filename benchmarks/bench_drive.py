@@ -156,6 +156,8 @@ def map_checks(fast, reference) -> dict:
         "volume_m3_reference": round(reference_metrics.volume_m3, 3),
         "loop_closures": fast_metrics.loop_closures,
         "loop_closures_reference": reference_metrics.loop_closures,
+        "ate_m": round(fast_metrics.ate_m, 6),
+        "ate_m_reference": round(reference_metrics.ate_m, 6),
         "keyframes": fast_metrics.keyframes,
     }
 
