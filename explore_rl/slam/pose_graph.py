@@ -37,8 +37,9 @@ _KEY_BASE = ord("x") << 56  # gtsam.Symbol layout: the character in the top byte
 _INDEX_MASK = (1 << 56) - 1
 
 # Above this fraction of changed poses, one full ``calculateEstimate`` beats per-key reads
-# (~0.4 vs ~1.1 us per pose; the same values either way, see PoseGraph._read_estimates).
-_FULL_READ_FRACTION = 0.3
+# (~0.6 vs ~3 us per pose, measured on office episodes; the same values either way, see
+# PoseGraph._read_estimates).
+_FULL_READ_FRACTION = 0.2
 
 
 def key(i: int) -> int:
