@@ -10,6 +10,10 @@ Every change goes through :meth:`PoseGraph._apply`, which turns plain-numpy fact
 records into gtsam factors, runs the iSAM2 update(s) and logs the batch. The log makes
 the graph picklable (``__setstate__`` replays it, reproducing the same iSAM2 state) and
 :meth:`copy` uses the iSAM2 copy constructor (``copy.deepcopy`` of an ISAM2 fails).
+
+Estimates are read once per update and only where they can have changed (a keyframe's
+iSAM2 delta or linearisation point): bit for bit ``calculateEstimate()``, without
+retracting the whole trajectory at every keyframe.
 """
 
 from __future__ import annotations
