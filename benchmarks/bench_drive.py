@@ -106,10 +106,11 @@ def replay(seed: int, decisions: int, mode: str, paths: list[list], extra: list[
             "wall_seconds": time.perf_counter() - start_wall, "stages": dict(explorer.session.timer.seconds)}
 
 
-# Native calls both modes make alike per keyframe (the LiDAR cast, iSAM2, its estimates, the
-# cloud down-sampling): their time bounds what any map-update mode can save.
+# Native calls both modes make alike per keyframe (the LiDAR cast, iSAM2, its estimates and
+# the delta they are read at, the cloud down-sampling): their time bounds what any
+# map-update mode can save.
 SHARED_NATIVE = ("mj_multiRay", "update", "calculateEstimate", "calculateEstimatePose3", "extractPose3",
-                 "_voxel_down_sample")
+                 "getDelta", "vector", "getMarkedKeys", "_voxel_down_sample")
 
 
 def write_profile(path: Path, seed: int, decisions: int, paths: list[list], extra: list[str]) -> dict:
@@ -156,6 +157,8 @@ def map_checks(fast, reference) -> dict:
         "volume_m3_reference": round(reference_metrics.volume_m3, 3),
         "loop_closures": fast_metrics.loop_closures,
         "loop_closures_reference": reference_metrics.loop_closures,
+        "ate_m": round(fast_metrics.ate_m, 6),
+        "ate_m_reference": round(reference_metrics.ate_m, 6),
         "keyframes": fast_metrics.keyframes,
     }
 

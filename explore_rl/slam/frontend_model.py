@@ -303,8 +303,11 @@ class ModelLoopCloser:
         self.closures: dict[str, int] = {POSE_MATCHING: 0, SEGMENT_MATCHING: 0}
         self.accepted: list[tuple[int, int]] = []
         self._nodes: list[int] = []  # endpoints of accepted closures
-        self._distance = np.zeros((0, 0))
-        self._through = np.zeros((0, 0))
+        # _distance and _through (see _link) live in the top-left corner of square buffers
+        # that double when full: a closure adds up to two endpoints, and reallocating the
+        # tables for each was most of its cost.
+        self._distance_buffer = np.zeros((0, 0))
+        self._through_buffer = np.zeros((0, 0))
         self._through_minus_node = np.zeros(0)  # per endpoint p: min over q of _through[p, q] - q
         self._newest_node = -1
         self._segment_revisit: list[int] = []  # candidates of the previous segmentation step
@@ -401,34 +404,54 @@ class ModelLoopCloser:
             to_j = np.min(self._through + np.abs(nodes - j)[None, :], axis=1)  # per p, over q
         return np.min(np.abs(indices[:, None] - nodes[None, :]) + to_j[None, :], axis=1)
 
+    @property
+    def _distance(self) -> np.ndarray:
+        n = len(self._nodes)
+        return self._distance_buffer[:n, :n]
+
+    @property
+    def _through(self) -> np.ndarray:
+        n = len(self._nodes)
+        return self._through_buffer[:n, :n]
+
     def _link(self, a: int, b: int) -> None:
         """Add closure (a, b) to the endpoint distance tables.
 
         ``_distance[p, q]``: fewest steps between endpoints p and q (chain and closures);
-        ``_through[p, q]``: the same restricted to paths that use at least one closure."""
+        ``_through[p, q]``: the same restricted to paths that use at least one closure.
+        Both are symmetric and hold whole numbers (or inf), so every sum and minimum below
+        is exact whatever its order."""
         for x in (a, b):
-            if x in self._nodes:
-                continue
-            n = len(self._nodes)
-            chain = np.abs(np.asarray(self._nodes, dtype=float) - x)
-            distance = np.full((n + 1, n + 1), np.inf)
-            through = np.full((n + 1, n + 1), np.inf)
-            distance[:n, :n], through[:n, :n] = self._distance, self._through
-            if n:  # x reaches the others along the chain to some endpoint, then on
-                distance[n, :n] = distance[:n, n] = np.min(chain[:, None] + self._distance, axis=0)
-                through[n, :n] = through[:n, n] = np.min(chain[:, None] + self._through, axis=0)
-            distance[n, n] = 0.0
-            self._distance, self._through = distance, through
-            self._nodes.append(x)
+            if x not in self._nodes:
+                self._add_endpoint(x)
         ia, ib = self._nodes.index(a), self._nodes.index(b)
-        D = self._distance
-        via = np.minimum(D[:, ia][:, None] + D[ib][None, :], D[:, ib][:, None] + D[ia][None, :])
-        self._through = np.minimum(self._through, via)
-        self._distance = np.minimum(D, via)
+        D, through = self._distance, self._through  # views: updated in place
+        via = np.add.outer(D[:, ia], D[ib])
+        np.minimum(via, np.add.outer(D[:, ib], D[ia]), out=via)
+        np.minimum(through, via, out=through)
+        np.minimum(D, via, out=D)
         # For queries from a keyframe at or past every endpoint (the newest one, every call
         # of the loop closer): min over q of through[p, q] - q, so a query costs O(n), not O(n^2).
-        self._through_minus_node = np.min(self._through - np.asarray(self._nodes, dtype=float)[None, :], axis=1)
+        self._through_minus_node = np.min(through - np.asarray(self._nodes, dtype=float)[None, :], axis=1)
         self._newest_node = max(self._nodes)
+
+    def _add_endpoint(self, x: int) -> None:
+        """A new closure endpoint ``x``: it reaches the others along the chain to some
+        endpoint, then on (row and column ``n`` of both tables)."""
+        n = len(self._nodes)
+        if n == len(self._distance_buffer):
+            size = max(2 * n, 16)
+            for name in ("_distance_buffer", "_through_buffer"):
+                grown = np.full((size, size), np.inf)
+                grown[:n, :n] = getattr(self, name)[:n, :n]
+                setattr(self, name, grown)
+        chain = np.abs(np.asarray(self._nodes, dtype=float) - x)
+        for buffer in (self._distance_buffer, self._through_buffer):
+            if n:  # min over endpoints p of |p - x| + table[p, q], read along rows (symmetric)
+                buffer[n, :n] = buffer[:n, n] = np.min(buffer[:n, :n] + chain[None, :], axis=1)
+            buffer[n, n] = np.inf
+        self._distance_buffer[n, n] = 0.0
+        self._nodes.append(x)
 
     # ------------------------------------------------------------------ sources
 

@@ -362,3 +362,57 @@ def test_segments_clear_matches_the_grid_line_of_sight():
     expected = line_of_sight(np.tile(start, (len(ends), 1)), ends, occupancy.known_occupied, grid, 0.5)
     np.testing.assert_array_equal(got, expected)
     assert 20 < got.sum() < 180  # both outcomes occur
+
+
+def reallocating_link(tables: dict, a: int, b: int) -> None:
+    """The tables' update as the session-30 code made it (new arrays for every endpoint
+    and closure): the reference the in-place ``ModelLoopCloser._link`` must equal."""
+    nodes = tables["nodes"]
+    for x in (a, b):
+        if x in nodes:
+            continue
+        n = len(nodes)
+        chain = np.abs(np.asarray(nodes, dtype=float) - x)
+        distance, through = np.full((n + 1, n + 1), np.inf), np.full((n + 1, n + 1), np.inf)
+        distance[:n, :n], through[:n, :n] = tables["distance"], tables["through"]
+        if n:
+            distance[n, :n] = distance[:n, n] = np.min(chain[:, None] + tables["distance"], axis=0)
+            through[n, :n] = through[:n, n] = np.min(chain[:, None] + tables["through"], axis=0)
+        distance[n, n] = 0.0
+        tables["distance"], tables["through"] = distance, through
+        nodes.append(x)
+    ia, ib = nodes.index(a), nodes.index(b)
+    D = tables["distance"]
+    via = np.minimum(D[:, ia][:, None] + D[ib][None, :], D[:, ib][:, None] + D[ia][None, :])
+    tables["through"], tables["distance"] = np.minimum(tables["through"], via), np.minimum(D, via)
+
+
+def test_closure_endpoint_tables_grown_in_place_equal_the_reallocating_update():
+    """After every accepted closure the tables ``_link`` keeps in growing buffers equal the
+    reallocating update's, and ``_distance`` is the all-pairs shortest path over the
+    endpoints (chain links of their index distance, closures of length ~0)."""
+    from scipy.sparse.csgraph import shortest_path
+
+    from explore_rl.slam.config import LoopClosureConfig
+    from explore_rl.slam.frontend_model import ModelLoopCloser
+
+    rng = np.random.default_rng(7)
+    closer = ModelLoopCloser(LoopClosureConfig(), load_loop_closures(), rng)
+    reference = {"nodes": [], "distance": np.zeros((0, 0)), "through": np.zeros((0, 0))}
+    closures = []
+    for _ in range(40):  # past the first buffer growths (16, 32, 64 endpoints)
+        a, b = (int(v) for v in sorted(rng.choice(300, 2, replace=False)))
+        closer._link(a, b)
+        reallocating_link(reference, a, b)
+        closures.append((a, b))
+        assert closer._nodes == reference["nodes"]
+        np.testing.assert_array_equal(closer._distance, reference["distance"])
+        np.testing.assert_array_equal(closer._through, reference["through"])
+        nodes = np.asarray(closer._nodes)
+        expected = np.min(reference["through"] - nodes[None, :].astype(float), axis=1)
+        np.testing.assert_array_equal(closer._through_minus_node, expected)
+        index = {p: k for k, p in enumerate(nodes)}
+        weights = np.abs(nodes[:, None] - nodes[None, :]).astype(float)
+        for p, q in closures:
+            weights[index[p], index[q]] = weights[index[q], index[p]] = 1e-3  # ~0 (rounded off), still an edge
+        np.testing.assert_array_equal(closer._distance, np.round(shortest_path(weights, method="FW", directed=False)))

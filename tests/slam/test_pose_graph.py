@@ -250,3 +250,79 @@ def test_poses_se2_are_cached_copies_renewed_by_each_update():
     graph.add_keyframe([0.5, 0.0, 0.0], 3)
     assert len(graph.poses_se2()) == 7
     np.testing.assert_allclose(graph.poses_se2()[-1, :2], se2_compose(graph.poses_se2()[-2], [0.5, 0.0, 0.0])[:2])
+
+
+class CountingIsam:
+    """Delegates to a live ``gtsam.ISAM2`` and counts the estimate reads (pybind objects
+    cannot be patched)."""
+
+    def __init__(self, isam: gtsam.ISAM2):
+        self.isam, self.single, self.full = isam, 0, 0
+
+    def calculateEstimatePose3(self, k):  # noqa: N802 (gtsam's name)
+        self.single += 1
+        return self.isam.calculateEstimatePose3(k)
+
+    def calculateEstimate(self):  # noqa: N802
+        self.full += 1
+        return self.isam.calculateEstimate()
+
+    def __getattr__(self, name):
+        return getattr(self.isam, name)
+
+
+def full_estimates(graph: PoseGraph) -> np.ndarray:
+    """Every estimate fresh from ``calculateEstimate``, as ``(N, 4, 4)``."""
+    isam = graph.isam.isam if isinstance(graph.isam, CountingIsam) else graph.isam
+    values = isam.calculateEstimate()
+    return np.stack([values.atPose3(key(i)).matrix() for i in range(graph.num_poses)])
+
+
+@pytest.mark.parametrize("read_every", [1, 3])
+def test_estimates_are_recomputed_only_where_they_changed_and_equal_a_full_read(read_every):
+    """A long chain, then loop closures (relinearising much of it), then the chain goes on;
+    the estimates read after every (or every third) update equal ``calculateEstimate``'s
+    bit for bit, and between closures only a few keyframes are computed again."""
+    config = PoseGraphConfig()
+    truth, steps = square_path(side=8.0, step=0.5)  # 64 keyframes
+    deltas = noisy_odometry(truth, steps, config, seed=4)
+    graph = PoseGraph(config, truth[0])
+    counting = graph._isam = CountingIsam(graph._isam)
+    per_read, updates = [], 0
+
+    def update(action) -> None:
+        nonlocal updates
+        action()
+        updates += 1
+        if updates % read_every == 0:
+            single, full = counting.single, counting.full
+            poses = graph.poses_matrix()
+            per_read.append((graph.num_poses, counting.single - single, counting.full - full))
+            np.testing.assert_array_equal(poses, full_estimates(graph))
+
+    for delta, k in zip(deltas[:48], steps[:48]):
+        update(lambda: graph.add_keyframe(delta, int(k)))
+    chain = list(per_read)
+    for i in (0, 2):
+        update(lambda: graph.add_loop_closure(i, 47 - i, true_relative(truth, i, 47 - i), LOOP_COV, "pose_matching"))
+    for delta, k in zip(deltas[48:], steps[48:]):
+        update(lambda: graph.add_keyframe(delta, int(k)))
+    np.testing.assert_array_equal(graph.poses_se2(), graph.poses_se2())  # cached, stable
+    late_chain = [r for r in chain if r[0] > 35]
+    assert late_chain and all(full == 0 and single < 0.2 * n for n, single, full in late_chain)
+    assert any(full or single >= 10 for _, single, full in per_read[len(chain):])  # the closures moved many
+
+
+def test_copies_share_read_estimates_but_not_their_updates():
+    config = PoseGraphConfig()
+    truth, steps = square_path(side=2.0, step=0.5)
+    live = build(truth, steps, config)
+    before = live.poses_matrix()
+    sibling = live.copy()
+    sibling.add_loop_closure(0, live.num_poses - 1, true_relative(truth, 0, live.num_poses - 1), LOOP_COV,
+                             "pose_matching")
+    np.testing.assert_array_equal(sibling.poses_matrix(), full_estimates(sibling))
+    assert not np.array_equal(sibling.poses_matrix(), before)
+    np.testing.assert_array_equal(live.poses_matrix(), before)
+    live.add_keyframe([0.5, 0.0, 0.0], 3)
+    np.testing.assert_array_equal(live.poses_matrix(), full_estimates(live))

@@ -131,6 +131,13 @@ def episode():
     explorer = Explorer(config)
     session, steps, corrections = explorer.session, [], []
     observe, correct = session.observe, session.correct_maps
+    graph, read = session.graph, session.graph._read_estimates
+    reads = explorer.estimate_reads = []  # per read: same as a full calculateEstimate?
+
+    def checked_read():
+        poses = read()
+        reads.append(np.array_equal(poses, graph._all_estimates()))
+        return poses
 
     def recording_observe(step):
         steps.append(step)
@@ -141,6 +148,7 @@ def episode():
         return correct(moved, estimates)
 
     session.observe, session.correct_maps = recording_observe, recording_correct
+    graph._read_estimates = checked_read
     explorer.run()
     return config, explorer, steps, corrections
 
@@ -155,6 +163,15 @@ def test_incremental_corrections_equal_a_full_reference_rebuild_on_a_real_episod
     assert_maps_equal_reference(session)
     # every map pose stays within a cell of its current estimate
     assert len(session.occupancy.moved_poses(session.map_poses, session.graph.poses_se2())) == 0
+
+
+def test_estimates_read_per_keyframe_equal_full_reads_on_a_real_episode(episode):
+    """The graph re-reads only the estimates that changed (``PoseGraph._read_estimates``):
+    on an episode with loop closures every read equals a full ``calculateEstimate``."""
+    _, explorer, _, corrections = episode
+    assert len(corrections) >= 2 and explorer.session.metrics().loop_closures > 10
+    assert len(explorer.estimate_reads) >= len(explorer.session.keyframes) - 1
+    assert all(explorer.estimate_reads)
 
 
 def test_reference_mode_on_the_same_steps_rebuilds_and_equals_its_reference(episode):
