@@ -285,10 +285,14 @@ def _tangent_marginals(information) -> np.ndarray:
 
 
 def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:
-    """The actor's logit of every row of ``encoded`` (0 on padding), no gradients."""
+    """The actor's logit of every row of ``encoded`` (0 on padding), no gradients; the
+    adjacency's nonzero entries from the encoding's edges when it has them (no scan)."""
+    entries = None
+    if encoded.entries is not None:
+        entries = torch.from_numpy(np.pad(encoded.entries, ((0, 0), (1, 0))))  # graph 0
     with torch.no_grad():
         return actor(torch.from_numpy(encoded.x)[None], torch.from_numpy(encoded.adj)[None],
-                     torch.from_numpy(encoded.node_mask)[None])[0]
+                     torch.from_numpy(encoded.node_mask)[None], entries)[0]
 
 
 def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
