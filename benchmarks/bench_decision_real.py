@@ -8,7 +8,8 @@ loop-free chains halved, one landmark fusion, KD-tree pairs, line of sight by le
 closed-form observations, the encoding padded only to the graph's nodes) and to its
 reference (the first implementation, EM's marginals, padded to ``graph.max_nodes``),
 and to nearest frontier. Times are each
-policy's ``choose``; ``ms_state`` is the state itself (frontiers, Dijkstra, paths: what
+policy's ``choose`` (after a warm-up call, the mean of the same number of repeats for EM
+and the learned policy: 3, ``--quick`` 2); ``ms_state`` is the state itself (frontiers, Dijkstra, paths: what
 every policy pays before choosing, timed once per decision), so ``em_over_learned_decide``
 compares what the runner's ``ms_decide`` column holds. On every state the fast path must
 be the reference's decision under :class:`~explore_rl.planning.learned.Equivalence`
@@ -104,7 +105,7 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
 def measure_state(state: ExplorationState, ms_state: float, learned: LearnedPolicy, reference: LearnedPolicy,
                   em: EMPlanner, repeats: int) -> dict:
     """Milliseconds of each policy's ``choose`` on ``state`` and the fast/reference agreement."""
-    ms_em = 1e3 * time_call(lambda: em.choose(state), 1)
+    ms_em = 1e3 * time_call(lambda: em.choose(state), repeats)  # as the learned policy: less noise
     ms_reference = 1e3 * time_call(new_observation(lambda: reference.choose(state)), repeats)
     ms_learned = 1e3 * time_call(new_observation(lambda: learned.choose(state)), repeats)
     parts = dict(learned.last_ms)
