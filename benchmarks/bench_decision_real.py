@@ -4,13 +4,14 @@ The states are those of an exploration driven by the learned policy (the shipped
 ``graph.max_nodes=1024``, the real front end ``slam=icp``) in the zero-shot scenes street
 and garage: every ``EVERY``-th decision, the same state is handed to EM (default fast
 backend), to the learned policy's fast path (the pose marginals by depth levels with
-loop-free chains halved, one landmark fusion, KD-tree pairs, line of sight by length,
-closed-form observations, the encoding padded only to the graph's nodes) and to its
+loop-free chains halved, one landmark fusion by EM's fast rounds, KD-tree pairs, line of
+sight by length, the encoding padded only to the graph's nodes, the g-U-Net's input
+level from the encoded edges) and to its
 reference (the first implementation, EM's marginals, padded to ``graph.max_nodes``),
-and to nearest frontier. Times are each
-policy's ``choose`` (after a warm-up call, the mean of the same number of repeats for EM
-and the learned policy: 3, ``--quick`` 2); ``ms_state`` is the state itself (frontiers, Dijkstra, paths: what
-every policy pays before choosing, timed once per decision), so ``em_over_learned_decide``
+and to nearest frontier. Times are each policy's ``choose`` (after a warm-up call, the
+mean of the same number of repeats for EM and the learned policy: 3, ``--quick`` 2);
+``ms_state`` is the state itself (frontiers, Dijkstra, paths: what every policy pays
+before choosing, timed once per decision), so ``em_over_learned_decide``
 compares what the runner's ``ms_decide`` column holds. On every state the fast path must
 be the reference's decision under :class:`~explore_rl.planning.learned.Equivalence`
 (round-off only: the same frontier, node features within 1e-9 relative, logits within
