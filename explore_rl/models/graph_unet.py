@@ -80,7 +80,9 @@ class Operator(NamedTuple):
     transposed: Tensor
 
     def __call__(self, x: Tensor, bias: Tensor | None = None) -> Tensor:
-        """``matrix @ x (+ bias)``."""
+        """``matrix @ x (+ bias)`` (without autograd, the product alone: the same op)."""
+        if not torch.is_grad_enabled():
+            return sparse_addmm(self.matrix, x, bias)
         return Propagate.apply(self.matrix, self.transposed, x, bias)
 
 
@@ -404,8 +406,15 @@ class DenseGCNConv(nn.Module):
     def forward(self, x: Tensor, propagate: Operator) -> Tensor:
         # (A X) W == A (X W): propagate the narrower of the two (the input layer has 4 features).
         if self.lin.in_features < self.lin.out_features:
-            return Linear.apply(propagate(x), self.lin.weight, self.bias)
-        return propagate(Linear.apply(x, self.lin.weight, None), self.bias)
+            return linear(propagate(x), self.lin.weight, self.bias)
+        return propagate(linear(x, self.lin.weight, None), self.bias)
+
+
+def linear(x: Tensor, weight: Tensor, bias: Tensor | None) -> Tensor:
+    """:class:`Linear` (without autograd, its forward alone: the same op)."""
+    if torch.is_grad_enabled():
+        return Linear.apply(x, weight, bias)
+    return x @ weight.t() if bias is None else torch.addmm(bias, x, weight.t())
 
 
 class PackedRows(NamedTuple):

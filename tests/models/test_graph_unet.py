@@ -290,6 +290,18 @@ def test_known_entries_give_the_scanned_level_and_the_same_outputs():
         torch.testing.assert_close(dense(x, adj, mask, torch.cat([adj.nonzero(), stray])), scanned, atol=0, rtol=0)
 
 
+def test_without_autograd_the_same_outputs_bit_for_bit():
+    """Under ``no_grad`` the layers skip their autograd functions (the products alone);
+    the outputs are bitwise those with autograd."""
+    _, dense = pyg_and_dense()
+    batch = pad(random_graphs([40, 9, 23], seed=16))
+    x, adj, mask = batch["x"], batch["adj"], batch["node_mask"]
+    with_grad = dense(x.requires_grad_(), adj, mask)
+    assert with_grad.requires_grad
+    with torch.no_grad():
+        torch.testing.assert_close(dense(x, adj, mask), with_grad.detach(), atol=0, rtol=0)
+
+
 @pytest.mark.parametrize("few_nodes", [False, True])
 def test_parameter_gradients_match_pyg(few_nodes):
     """Also when the loss reads a few nodes only (as the actor's: frontiers), so that most
