@@ -305,15 +305,15 @@ class Equivalence:
     """When a decision counts as the reference's: differences of round-off only (another
     summation or elimination order), never an approximation. Asking for bit-identical
     logits asks for bit-identical float32 features; across implementations that is luck,
-    not a property (a relative change of 1e-9 in one pose marginal can move a logit of a
-    few hundred by one float32 step, 3e-5). Real changes are orders of magnitude above
+    not a property (scaling every pose marginal by 1 + 1e-9 moves a logit of a few hundred
+    by one float32 step, 3e-5). Real changes are orders of magnitude above
     these bounds: the planar approximation of the marginals under icp (ruled out) moves
     them by 1e-7 to 2e-5 relative and the logits by up to 7e-3.
 
     * ``feature_rtol``: every node feature within this of the reference's, relative to
       it (double precision; another elimination order of the marginals gives ~1e-11);
     * ``logit_rtol``: every real row's logit within this times the largest reference
-      logit (a float32 step is ``2^-23`` = 1.2e-7 of it: a few steps);
+      logit (a float32 step is 6e-8 to 1.2e-7 of it: some 8-16 steps);
     * ``probability_atol``: the actor's action probabilities (softmax over the frontier
       rows, in double) within this;
     * and the same edges and the same chosen frontier.
