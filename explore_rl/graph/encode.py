@@ -29,6 +29,7 @@ class EncodedGraph:
     action_mask: np.ndarray  # (N,) bool
     nodes: np.ndarray  # (n_kept,) graph node index of each real row
     dropped: int  # pose nodes dropped to fit N
+    entries: np.ndarray | None = None  # (M, 2) (row, column) of adj's nonzero entries, row-major (np.argwhere)
 
     def row_of(self, node: int) -> int:
         """Row of graph node ``node``; ValueError if it was dropped."""
@@ -85,23 +86,35 @@ def encode(graph: ExplorationGraph, max_nodes: int, compact: bool = False) -> En
     x = np.zeros((rows, graph.features.shape[1]), dtype=np.float32)
     x[:k] = graph.features[nodes]
     adj = np.zeros((rows, rows), dtype=np.float32)
-    adj[:k, :k] = kept_adjacency(graph, nodes)
+    i, j, weights = kept_edges(graph, nodes)
+    adj[i, j] = weights
+    adj[j, i] = weights
     node_mask = np.zeros(rows, dtype=bool)
     node_mask[:k] = True
     action_mask = np.zeros(rows, dtype=bool)
     action_mask[:k] = graph.candidate[nodes] >= 0
-    return EncodedGraph(x, adj, node_mask, action_mask, nodes, dropped)
+    return EncodedGraph(x, adj, node_mask, action_mask, nodes, dropped, nonzero_entries(adj, i, j))
 
 
-def kept_adjacency(graph: ExplorationGraph, nodes: np.ndarray) -> np.ndarray:
-    """``graph.adjacency()[np.ix_(nodes, nodes)]`` for sorted ``nodes``, from the edges
-    between kept nodes (no dense ``n x n`` of the whole graph first)."""
+def kept_edges(graph: ExplorationGraph, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows ``(i, j)`` and weights of the edges between the kept ``nodes`` (sorted):
+    ``graph.adjacency()[np.ix_(nodes, nodes)]`` holds them at ``[i, j]`` and ``[j, i]``
+    (no dense ``n x n`` of the whole graph first)."""
     row = np.full(graph.num_nodes, -1)
     row[nodes] = np.arange(len(nodes))
-    adj = np.zeros((len(nodes), len(nodes)))
-    if len(graph.edges):
-        i, j = row[graph.edges[:, 0]], row[graph.edges[:, 1]]
-        kept = (i >= 0) & (j >= 0)
-        adj[i[kept], j[kept]] = graph.weights[kept]
-        adj[j[kept], i[kept]] = graph.weights[kept]
-    return adj
+    if not len(graph.edges):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
+    i, j = row[graph.edges[:, 0]], row[graph.edges[:, 1]]
+    kept = (i >= 0) & (j >= 0)
+    return i[kept], j[kept], graph.weights[kept]
+
+
+def nonzero_entries(adj: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """``np.argwhere(adj)`` for a symmetric ``adj`` nonzero at most at ``[i, j]`` and
+    ``[j, i]``: from those pairs, without scanning its ``N^2`` entries (the g-U-Net packs
+    a graph from them: :class:`~explore_rl.models.graph_unet.InputLevelCache`)."""
+    rows, cols = np.concatenate([i, j]), np.concatenate([j, i])
+    keys = np.unique(rows.astype(np.int64) * adj.shape[1] + cols)
+    rows, cols = np.divmod(keys, adj.shape[1])
+    nonzero = adj[rows, cols] != 0
+    return np.stack([rows[nonzero], cols[nonzero]], axis=1)

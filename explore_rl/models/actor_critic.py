@@ -88,16 +88,17 @@ class NodeScorer(nn.Module):
         self.unet = make_unet(config, n_features)
         self.head = make_node_head(config)
 
-    def node_scores(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
-        return node_scores(self.head, self.unet(self.scale(x), adj, node_mask), node_mask)
+    def node_scores(self, x: Tensor, adj: Tensor, node_mask: Tensor, entries: Tensor | None = None) -> Tensor:
+        """``entries``: ``adj.nonzero()`` if known (no scan of the adjacency: :meth:`DenseGraphUNet.forward`)."""
+        return node_scores(self.head, self.unet(self.scale(x), adj, node_mask, entries), node_mask)
 
 
 class GraphActor(NodeScorer):
     """One logit per node, ``[..., N]``; padded nodes get logit 0 (finite, and masked
     away by ``MaskedCategorical`` anyway)."""
 
-    def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor) -> Tensor:
-        return self.node_scores(x, adj, node_mask.bool())
+    def forward(self, x: Tensor, adj: Tensor, node_mask: Tensor, entries: Tensor | None = None) -> Tensor:
+        return self.node_scores(x, adj, node_mask.bool(), entries)
 
 
 class GraphCritic(NodeScorer):

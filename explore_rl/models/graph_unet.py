@@ -80,7 +80,9 @@ class Operator(NamedTuple):
     transposed: Tensor
 
     def __call__(self, x: Tensor, bias: Tensor | None = None) -> Tensor:
-        """``matrix @ x (+ bias)``."""
+        """``matrix @ x (+ bias)`` (without autograd, the product alone: the same op)."""
+        if not torch.is_grad_enabled():
+            return sparse_addmm(self.matrix, x, bias)
         return Propagate.apply(self.matrix, self.transposed, x, bias)
 
 
@@ -291,9 +293,13 @@ class InputLevelCache:
         """Forget the cached level (benchmarks: every step a new observation)."""
         self.entry = None
 
-    def get(self, adj: Tensor, mask: Tensor, mode: str, min_edge_length: float) -> Level | None:
+    def get(self, adj: Tensor, mask: Tensor, mode: str, min_edge_length: float,
+            entries: Tensor | None = None) -> Level | None:
         """The input level of ``adj[..., N, N]``/``mask[..., N]`` (leading dims flattened
-        into graphs, slots past the last real node trimmed); None if no node is real."""
+        into graphs, slots past the last real node trimmed); None if no node is real.
+        ``entries``: ``adj.nonzero()`` of the flattened ``adj[B, N, N]`` (``(M, 3)``:
+        graph, row, column), when the caller knows it (a graph encoded from its edges):
+        no scan and no check, the level is built from it."""
         n_nodes = mask.shape[-1]
         mask = mask.reshape(-1, n_nodes).bool()
         extents = node_extents(mask)
@@ -304,11 +310,14 @@ class InputLevelCache:
         adj = adj.reshape(-1, n_nodes, n_nodes)[:, :n_used, :n_used]
         key = (tuple(adj.shape), adj.dtype, adj.device, mode, min_edge_length)
         entry = self.entry
-        if (entry is not None and entry.key == key and torch.equal(entry.mask, mask)
+        if entries is not None:
+            entries = entries[(entries[:, 1] < n_used) & (entries[:, 2] < n_used)].unbind(1)
+        elif (entry is not None and entry.key == key and torch.equal(entry.mask, mask)
                 and count_entries(adj, extents) == entry.values.numel()
                 and torch.equal(adj[entry.entries], entry.values)):
             return entry.level
-        entries = nonzero_entries(adj, extents)
+        else:
+            entries = nonzero_entries(adj, extents)
         level = input_level(adj, mask, mode, min_edge_length, entries)
         self.entry = CachedInput(key, mask.clone(), entries, adj[entries], level)
         return level
@@ -397,8 +406,15 @@ class DenseGCNConv(nn.Module):
     def forward(self, x: Tensor, propagate: Operator) -> Tensor:
         # (A X) W == A (X W): propagate the narrower of the two (the input layer has 4 features).
         if self.lin.in_features < self.lin.out_features:
-            return Linear.apply(propagate(x), self.lin.weight, self.bias)
-        return propagate(Linear.apply(x, self.lin.weight, None), self.bias)
+            return linear(propagate(x), self.lin.weight, self.bias)
+        return propagate(linear(x, self.lin.weight, None), self.bias)
+
+
+def linear(x: Tensor, weight: Tensor, bias: Tensor | None) -> Tensor:
+    """:class:`Linear` (without autograd, its forward alone: the same op)."""
+    if torch.is_grad_enabled():
+        return Linear.apply(x, weight, bias)
+    return x @ weight.t() if bias is None else torch.addmm(bias, x, weight.t())
 
 
 class PackedRows(NamedTuple):
@@ -502,10 +518,12 @@ class DenseGraphUNet(nn.Module):
         up_out = [hidden] * (depth - 1) + [out_features]
         self.up_convs = nn.ModuleList([DenseGCNConv(up_in, width) for width in up_out])
 
-    def forward(self, x: Tensor, adj: Tensor, mask: Tensor) -> Tensor:
-        """Flatten leading batch dims, pack the real nodes, run the U-Net, pad back."""
+    def forward(self, x: Tensor, adj: Tensor, mask: Tensor, entries: Tensor | None = None) -> Tensor:
+        """Flatten leading batch dims, pack the real nodes, run the U-Net, pad back.
+        ``entries``: ``adj.nonzero()`` (leading dims flattened), if known
+        (:meth:`InputLevelCache.get`)."""
         batch_shape, n_nodes = x.shape[:-2], x.shape[-2]
-        level = INPUT_LEVELS.get(adj, mask, self.edge_weight, self.min_edge_length)
+        level = INPUT_LEVELS.get(adj, mask, self.edge_weight, self.min_edge_length, entries)
         if level is None:
             return x.new_zeros(*batch_shape, n_nodes, self.out_features)
         where = level.graph * n_nodes + level.slot  # each packed node's row in the output

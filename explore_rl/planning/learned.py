@@ -21,18 +21,20 @@ as the full map (:class:`~explore_rl.planning.em.Observations`), so the graph is
 every candidate's revisits predicted at once (:func:`~explore_rl.planning.actions.predict_candidate_paths`),
 the pose marginals by depth levels with loop-free chains halved (:func:`pose_marginals`),
 one fusion for the frontiers' landmarks and the extended set's, the pairs within sensor
-range from a KD-tree (:func:`pairs_in_range`), their line of sight by length
-(:func:`~explore_rl.mapping.visibility.line_of_sight_by_length`), the observations'
-covariances in closed form (:func:`observed_covariances`), and the encoding padded only to
-the graph's nodes (the g-U-Net packs the real nodes: padding changes no logit). The first
-implementation stays as ``LearnedPolicy(reference=True)``; tests compare both on real
-states (same graph, same frontier, logits within 1e-5).
+range from a KD-tree (:func:`pairs_in_range`), their line of sight by length (as EM's
+decision context), the observations in closed form and fused by EM's fast rounds
+(:func:`fuse_observations`: the same code as EM's fast backend), and the encoding padded
+only to the graph's nodes (the g-U-Net packs the real nodes: padding changes no logit).
+The first implementation stays as ``LearnedPolicy(reference=True)``; tests and the
+benchmark compare both on real states by :class:`Equivalence` (round-off only: the same
+frontier, features, logits and probabilities within tolerances far below any real change).
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -50,15 +52,14 @@ from explore_rl.graph.exploration_graph import (
 )
 from explore_rl.graph.features import frontier_extras
 from explore_rl.grid import GridSpec
-from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
 from explore_rl.planning.actions import Action, select_actions
 from explore_rl.planning.config import PlanningConfig
 from explore_rl.planning.em import Observations, pose_covariances
-from explore_rl.planning.em_fast import PLANAR, world_from_tangent
+from explore_rl.planning.em_fast import PLANAR, FuseRounds, fuse_batched, world_from_tangent
 from explore_rl.planning.policies import PolicyConfig
-from explore_rl.planning.virtual_map import VirtualMap, fuse_in_order, lever_and_noise
+from explore_rl.planning.virtual_map import VirtualMap
 from explore_rl.slam.marginals import BLOCK, DepthMarginals, information_from_jacobian, planar_blocks
 
 if TYPE_CHECKING:
@@ -76,38 +77,15 @@ def visible_pairs_of(vmap: VirtualMap, poses: np.ndarray, blocked: np.ndarray, l
                      reference: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """``(pose, landmark)`` index pairs of the observations of ``landmarks`` only, exactly
     as ``vmap.visible_pairs`` would list them among all pairs: within ``sensor_range``
-    (same distance expression) and in line of sight (same test and parameters), in pose
-    order. ``reference``: the pairs from the full distance matrix and one line-of-sight
+    (same distance expression) and in line of sight (:meth:`VirtualMap.line_of_sight`), in
+    pose order. ``reference``: the pairs from the full distance matrix and one line-of-sight
     batch (the first code); else a KD-tree (:func:`pairs_in_range`) and the segments
-    grouped by length (:func:`~explore_rl.mapping.visibility.line_of_sight_by_length`)."""
-    config = vmap.config
+    grouped by length (``by_length``, as EM's decision context)."""
     pairs = pairs_in_range_reference if reference else pairs_in_range
-    pose_idx, slot = pairs(poses[:, :2], vmap.landmark_xy[landmarks], config.sensor_range)
+    pose_idx, slot = pairs(poses[:, :2], vmap.landmark_xy[landmarks], vmap.config.sensor_range)
     landmark_idx = landmarks[slot]
-    visibility = line_of_sight if reference else line_of_sight_by_length
-    visible = visibility(poses[pose_idx, :2], vmap.landmark_xy[landmark_idx], blocked, vmap.grid,
-                         config.los_step_fraction, end_box=config.cell_size,
-                         max_batch_samples=config.max_batch_samples)
+    visible = vmap.line_of_sight(poses[pose_idx], landmark_idx, blocked, by_length=not reference)
     return pose_idx[visible], landmark_idx[visible]
-
-
-def observed_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, pose_idx: np.ndarray,
-                         landmark_idx: np.ndarray) -> np.ndarray:
-    """``(M, 2, 2)``: the covariance of landmark ``landmark_idx[m]`` as seen from pose
-    ``pose_idx[m]`` -- :meth:`~explore_rl.planning.em.Observations.landmark_covariances`
-    (``H_l^-1 (R + H_x S H_x^T) H_l^-T``) in closed form: ``H_l^-1 H_x = [-I | (a, b)]`` and
-    the noise's three components from :func:`~explore_rl.planning.virtual_map.lever_and_noise`
-    (the landmark moves with the pose), so ``gain S gain^T`` is elementwise -- without the
-    ~4 batched 2x2/2x3 products and inverses per observation (equal up to round-off)."""
-    lever, (n00, n01, n11) = lever_and_noise(poses[pose_idx], vmap.landmark_xy[landmark_idx], vmap.config)
-    a, b = lever[:, 0], lever[:, 1]
-    s = pose_covs[pose_idx]
-    sxx, sxy, sxt, syy, syt, stt = s[:, 0, 0], s[:, 0, 1], s[:, 0, 2], s[:, 1, 1], s[:, 1, 2], s[:, 2, 2]
-    covs = np.empty((len(a), 2, 2))
-    covs[:, 0, 0] = n00 + sxx - 2.0 * a * sxt + a * a * stt
-    covs[:, 0, 1] = covs[:, 1, 0] = n01 + sxy - b * sxt - a * syt + a * b * stt
-    covs[:, 1, 1] = n11 + syy - 2.0 * b * syt + b * b * stt
-    return covs
 
 
 def pairs_in_range(pose_xy: np.ndarray, landmark_xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -145,7 +123,8 @@ def landmark_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
     indices, ascending) after every keyframe's observations -- as in the fully fused map
     (each landmark is fused on its own), from their observations alone. ``reference``:
     as first written (:func:`visible_pairs_of`'s reference, EM's
-    :class:`~explore_rl.planning.em.Observations`); else :func:`observed_covariances`."""
+    :class:`~explore_rl.planning.em.Observations` and ``fuse_in_order``); else EM's fast
+    fusion (:func:`fuse_observations`), equal up to round-off."""
     prior = vmap.config.prior_std**2 * np.eye(2)  # as VirtualMap.prior_covariances
     fused = np.repeat(prior[None], len(landmarks), axis=0)
     if len(landmarks):
@@ -154,9 +133,22 @@ def landmark_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndar
         if reference:
             observations = Observations.of_pairs(vmap, poses, pose_idx, landmark_idx)
             fused = Observations(pose_idx, slot, observations.gain, observations.noise).fuse(fused, pose_covs)
-        elif len(pose_idx):
-            fuse_in_order(fused, slot, observed_covariances(vmap, poses, pose_covs, pose_idx, landmark_idx))
+        else:
+            observations = Observations.closed_form(vmap, poses, pose_idx, landmark_idx)
+            fuse_observations(fused, Observations(pose_idx, slot, observations.gain, observations.noise), pose_covs)
     return fused
+
+
+def fuse_observations(covs: np.ndarray, observations: Observations, pose_covs: np.ndarray) -> None:
+    """Fuse ``observations`` (closed form, landmark indices into ``covs``) into ``covs``
+    in place, as :meth:`Observations.fuse` does (pose order, covariance intersection), by
+    EM's fast backend's rounds (:class:`~explore_rl.planning.em_fast.FuseRounds`,
+    :func:`~explore_rl.planning.em_fast.fuse_batched`: in-place intersection rounds on
+    information components; equal up to round-off)."""
+    if not len(observations.pose_idx):
+        return
+    rounds = FuseRounds.of(observations)
+    covs[rounds.landmarks] = fuse_batched(rounds, pose_covs[None], covs[rounds.landmarks])[0]
 
 
 def frontier_covariances(vmap: VirtualMap, poses: np.ndarray, pose_covs: np.ndarray, blocked: np.ndarray,
@@ -293,15 +285,96 @@ def _tangent_marginals(information) -> np.ndarray:
 
 
 def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:
-    """The actor's logit of every row of ``encoded`` (0 on padding), no gradients."""
+    """The actor's logit of every row of ``encoded`` (0 on padding), no gradients; the
+    adjacency's nonzero entries from the encoding's edges when it has them (no scan)."""
+    entries = None
+    if encoded.entries is not None:
+        entries = torch.from_numpy(np.pad(encoded.entries, ((0, 0), (1, 0))))  # graph 0
     with torch.no_grad():
         return actor(torch.from_numpy(encoded.x)[None], torch.from_numpy(encoded.adj)[None],
-                     torch.from_numpy(encoded.node_mask)[None])[0]
+                     torch.from_numpy(encoded.node_mask)[None], entries)[0]
 
 
 def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
     """Row of the most probable action of ``encoded`` (:func:`greedy_row`)."""
     return greedy_row(actor_logits(actor, encoded), torch.from_numpy(encoded.action_mask))
+
+
+@dataclass(frozen=True)
+class Equivalence:
+    """When a decision counts as the reference's: differences of round-off only (another
+    summation or elimination order), never an approximation. Asking for bit-identical
+    logits asks for bit-identical float32 features; across implementations that is luck,
+    not a property (scaling every pose marginal by 1 + 1e-9 moves a logit of a few hundred
+    by one float32 step, 3e-5). Real changes are orders of magnitude above
+    these bounds: the planar approximation of the marginals under icp (ruled out) moves
+    them by 1e-7 to 2e-5 relative and the logits by up to 7e-3.
+
+    * ``feature_rtol``: every node feature within this of the reference's, relative to
+      it (double precision; another elimination order of the marginals gives ~1e-11);
+    * ``logit_rtol``: every real row's logit within this times the largest reference
+      logit (a float32 step is 6e-8 to 1.2e-7 of it: some 8-16 steps);
+    * ``probability_atol``: the actor's action probabilities (softmax over the frontier
+      rows, in double) within this;
+    * and the same edges and the same chosen frontier.
+    """
+
+    feature_rtol: float = 1e-9
+    logit_rtol: float = 1e-6
+    probability_atol: float = 1e-6
+
+
+@dataclass(frozen=True)
+class DecisionDifference:
+    """How far a decision is from the reference's on the same state (:func:`decision_difference`)."""
+
+    same_choice: bool
+    same_edges: bool
+    feature_rel: float  # largest |a - b| / |b| over the node features and edge weights
+    logit_rel: float  # largest |a - b| over the real rows / largest |b|
+    probability: float  # largest |p_a - p_b| over the frontier rows
+
+    def within(self, equivalence: Equivalence) -> bool:
+        """Whether the decision is the reference's under ``equivalence``."""
+        return (self.same_choice and self.same_edges and self.feature_rel <= equivalence.feature_rtol
+                and self.logit_rel <= equivalence.logit_rtol and self.probability <= equivalence.probability_atol)
+
+
+def decision_difference(policy: LearnedPolicy, reference: LearnedPolicy) -> DecisionDifference:
+    """Compare the last decisions of ``policy`` and ``reference`` (made on the same state):
+    the encodings hold the same graph nodes in their first rows (the reference may pad)."""
+    graph, expected = policy.last_graph, reference.last_graph
+    n = len(policy.last_encoded.nodes)
+    logits, reference_logits = policy.last_logits[:n].double(), reference.last_logits[:n].double()
+    action_mask = torch.from_numpy(policy.last_encoded.action_mask[:n])
+    same_rows = (np.array_equal(policy.last_encoded.nodes, reference.last_encoded.nodes[:n])
+                 and torch.equal(action_mask, torch.from_numpy(reference.last_encoded.action_mask[:n])))
+    same_edges = (graph.features.shape == expected.features.shape and np.array_equal(graph.edges, expected.edges)
+                  and same_rows)
+    feature_rel = (max(_relative(graph.features, expected.features), _relative(graph.weights, expected.weights))
+                   if same_edges else float("inf"))
+    scale = float(reference_logits.abs().max()) if n else 0.0
+    difference = float((logits - reference_logits).abs().max()) if n else 0.0
+    logit_rel = difference / scale if scale > 0 else (0.0 if difference == 0 else float("inf"))
+    probability = float((_probabilities(logits, action_mask) - _probabilities(reference_logits, action_mask))
+                        .abs().max()) if bool(action_mask.any()) else 0.0
+    return DecisionDifference(policy.last_choice == reference.last_choice, same_edges, feature_rel, logit_rel,
+                              probability)
+
+
+def _relative(values: np.ndarray, expected: np.ndarray) -> float:
+    """Largest ``|values - expected| / |expected|`` (0 where they are equal, inf where
+    ``expected`` is 0 and ``values`` is not)."""
+    differ = values != expected
+    if not differ.any():
+        return 0.0
+    with np.errstate(divide="ignore"):
+        return float(np.max(np.abs(values[differ] - expected[differ]) / np.abs(expected[differ])))
+
+
+def _probabilities(logits: torch.Tensor, action_mask: torch.Tensor) -> torch.Tensor:
+    """The actor's distribution over the ``action_mask`` rows (``MaskedCategorical``'s)."""
+    return torch.softmax(logits.masked_fill(~action_mask, float("-inf")), 0)
 
 
 class LearnedPolicy:
@@ -333,6 +406,8 @@ class LearnedPolicy:
         self._vmap: VirtualMap | None = None
         self.last_graph: ExplorationGraph | None = None
         self.last_encoded: EncodedGraph | None = None
+        self.last_logits: torch.Tensor | None = None
+        self.last_choice: int | None = None
         self.last_ms: dict[str, float] = {}
 
     def virtual_map(self, grid: GridSpec) -> VirtualMap:
@@ -350,9 +425,11 @@ class LearnedPolicy:
                          self.planning.em.backend, self.features)
         encoded = encode(graph, self.max_nodes, compact=not self.reference)
         after_graph = time.perf_counter()
-        row = choose_row(self.actor, encoded)
+        logits = actor_logits(self.actor, encoded)
+        row = greedy_row(logits, torch.from_numpy(encoded.action_mask))
         end = time.perf_counter()
-        self.last_graph, self.last_encoded = graph, encoded
+        self.last_graph, self.last_encoded, self.last_logits = graph, encoded, logits
+        self.last_choice = int(graph.candidate[encoded.nodes[row]])
         self.last_ms = {"actions": 1e3 * (after_actions - start), "graph": 1e3 * (after_graph - after_actions),
                         "forward": 1e3 * (end - after_graph)}
-        return int(graph.candidate[encoded.nodes[row]])
+        return self.last_choice

@@ -1,6 +1,7 @@
 """Smoke test of benchmarks/bench_decision_real.py: it runs (``--smoke``: two office
 decisions, model front end) and its JSON last line holds the figures RESULTS.md quotes.
-Times are not checked; the fast learned path must have agreed with the reference."""
+Times are not checked; the fast learned path must have been the reference's decision
+(:class:`~explore_rl.planning.learned.Equivalence`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from pathlib import Path
 from tests.benchmarks.smoke import run_script
 
 KEYS = ["ms_em", "ms_learned", "ms_learned_reference", "em_over_learned", "em_over_learned_decide",
-        "em_over_learned_median", "ms_state", "same_choice", "max_logit_diff", "ms_part_actions",
+        "em_over_learned_median", "em_over_shared", "ms_state", "same_choice", "equivalent",
+        "equivalence", "feature_rel_diff", "logit_rel_diff", "probability_diff", "max_logit_diff", "ms_part_actions",
         "ms_part_marginals", "ms_part_landmarks", "ms_part_forward", "ms_part_forward_reference", "scenes", "rows"]
 
 
@@ -19,5 +21,9 @@ def test_bench_decision_real_smoke(tmp_path: Path) -> None:
     missing = [key for key in KEYS if key not in result]
     assert not missing, f"JSON last line lacks {missing} (has {sorted(result)})"
     assert result["states"] == len(result["rows"]) == 2 and set(result["scenes"]) == {"office"}
-    assert result["same_choice"] is True and result["max_logit_diff"] <= 1e-5
+    assert result["same_choice"] is True and result["equivalent"] is True
+    assert result["feature_rel_diff"] <= result["equivalence"]["feature_rtol"]
+    assert result["logit_rel_diff"] <= result["equivalence"]["logit_rtol"]
+    assert result["probability_diff"] <= result["equivalence"]["probability_atol"]
+    assert result["em_over_shared"] >= result["em_over_learned"]  # the bound: the learned-only parts at 0 ms
     assert result["ms_em"] > 0 and result["ms_learned"] > 0 and result["ms_learned_reference"] > 0

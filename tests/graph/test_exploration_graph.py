@@ -189,6 +189,9 @@ def test_compact_encoding_is_the_padded_one_without_its_padding_rows(max_nodes):
     np.testing.assert_array_equal(compact.node_mask, padded.node_mask[:k])
     np.testing.assert_array_equal(compact.action_mask, padded.action_mask[:k])
     assert compact.node_mask.all() and compact.x.dtype == compact.adj.dtype == np.float32
+    for encoded in (padded, compact):  # the nonzero entries from the edges: those a scan finds
+        np.testing.assert_array_equal(encoded.entries, np.argwhere(encoded.adj))
+    assert len(compact.entries) > 0
 
 
 def test_truncation_logs_and_drops_linked_poses_only_when_it_must(caplog):

@@ -267,6 +267,41 @@ def test_the_input_cache_serves_equal_inputs_and_never_a_changed_graph():
         torch.testing.assert_close(dense(x, adj, mask), fresh(), atol=0, rtol=0)
 
 
+def test_known_entries_give_the_scanned_level_and_the_same_outputs():
+    """``entries`` (the adjacency's nonzero entries, known from the edges): the same input
+    level as scanning the adjacency, bit for bit, so the same outputs; entries of padded
+    slots are ignored, as their entries are."""
+    _, dense = pyg_and_dense()
+    batch = pad(random_graphs([20, 9], seed=15))
+    x, adj, mask = batch["x"], batch["adj"], batch["node_mask"]
+    with torch.no_grad():
+        INPUT_LEVELS.entry = None
+        scanned = dense(x, adj, mask)
+        level = INPUT_LEVELS.entry.level
+        INPUT_LEVELS.entry = None
+        known = dense(x, adj, mask, adj.nonzero())
+    torch.testing.assert_close(known, scanned, atol=0, rtol=0)
+    for a, b in zip(INPUT_LEVELS.entry.level.edges, level.edges):
+        assert torch.equal(a, b)
+    assert not mask[1, 15]
+    stray = torch.tensor([[1, 15, 0], [1, 0, 15]])  # a padded slot of the second graph
+    INPUT_LEVELS.entry = None
+    with torch.no_grad():
+        torch.testing.assert_close(dense(x, adj, mask, torch.cat([adj.nonzero(), stray])), scanned, atol=0, rtol=0)
+
+
+def test_without_autograd_the_same_outputs_bit_for_bit():
+    """Under ``no_grad`` the layers skip their autograd functions (the products alone);
+    the outputs are bitwise those with autograd."""
+    _, dense = pyg_and_dense()
+    batch = pad(random_graphs([40, 9, 23], seed=16))
+    x, adj, mask = batch["x"], batch["adj"], batch["node_mask"]
+    with_grad = dense(x.requires_grad_(), adj, mask)
+    assert with_grad.requires_grad
+    with torch.no_grad():
+        torch.testing.assert_close(dense(x, adj, mask), with_grad.detach(), atol=0, rtol=0)
+
+
 @pytest.mark.parametrize("few_nodes", [False, True])
 def test_parameter_gradients_match_pyg(few_nodes):
     """Also when the loss reads a few nodes only (as the actor's: frontiers), so that most
