@@ -1,0 +1,60 @@
+"""Does the learned policy lean to the nearest frontier only off its training distribution?
+
+On the same states, the learned policy and EM each choose (the learned policy drives; EM's
+choice is only recorded): per decision the path length of each choice, its rank among the
+candidates by path length (0 = nearest), and whether they agree. Scenes: office layouts of
+training ([0, 1000)) and validation (1000-1002), building seeds of training (0-2) and
+validation (1000-1002), the garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
+
+    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py
+"""
+
+import dataclasses
+
+import numpy as np
+
+from explore_rl.config import load_config
+from explore_rl.planning.policies import make_policy
+from explore_rl.runner import Explorer
+
+SCENES = {
+    "office train (layouts 3, 4, 5)": [["scene=office", f"scene.seed={s}"] for s in (3, 4, 5)],
+    "office validation (1000-1002)": [["scene=office", f"scene.seed={s}"] for s in (1000, 1001, 1002)],
+    "buildings train (0-2)": [["scene=building", f"scene.seed={s}"] for s in (0, 1, 2)],
+    "buildings validation (1000-1002)": [["scene=building", f"scene.seed={s}"] for s in (1000, 1001, 1002)],
+    "garage (zero-shot)": [["scene=garage", f"seed={s}"] for s in (0, 1, 2)],
+}
+
+
+class Both:
+    """The learned policy decides; EM's choice on the same state is recorded."""
+
+    name = "learned"
+
+    def __init__(self, learned, em):
+        self.learned, self.em, self.records = learned, em, []
+
+    def choose(self, state) -> int:
+        mine, theirs = self.learned.choose(state), self.em.choose(state)
+        lengths = np.array([c.length for c in state.candidates])
+        rank = np.argsort(np.argsort(lengths, kind="stable"), kind="stable")
+        self.records.append((lengths[mine], lengths[theirs], rank[mine], rank[theirs], len(lengths), mine == theirs))
+        return mine
+
+
+for name, overrides_list in SCENES.items():
+    records = []
+    for overrides in overrides_list:
+        config = load_config([*overrides, "slam=model", "policy=learned", "explore.max_decisions=12",
+                              "explore.progress_bar=false", "graph.max_nodes=1024"])
+        rng = np.random.default_rng(0)
+        learned = make_policy(config.policy, rng, planning=config.planning, robot=config.robot, graph=config.graph)
+        em = make_policy(dataclasses.replace(config.policy, name="em"), rng, planning=config.planning,
+                         robot=config.robot, graph=config.graph)
+        both = Both(learned, em)
+        Explorer(config, policy=both).run()
+        records += both.records
+    r = np.array(records, dtype=float)
+    print(f"| {name} | {len(r)} | {r[:, 4].mean():.1f} | {np.median(r[:, 0]):.1f} / {np.median(r[:, 1]):.1f} | "
+          f"{r[:, 2].mean():.2f} / {r[:, 3].mean():.2f} | {np.mean(r[:, 2] == 0):.2f} / {np.mean(r[:, 3] == 0):.2f} | "
+          f"{r[:, 5].mean():.2f} |", flush=True)
