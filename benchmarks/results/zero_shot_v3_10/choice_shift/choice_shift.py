@@ -7,14 +7,22 @@ training ([0, 1000)) and validation (1000-1002), building seeds of training (0-2
 validation (1000-1002), the same validation seeds with a big open hall in every plan, the
 garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
 
-    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py
+    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate]
+
+``--ablate`` instead prints, per feature column, how often the learned policy takes the nearest
+frontier and EM's frontier when that column is made uninformative among the frontiers.
 """
 
 import dataclasses
+import sys
 
 import numpy as np
+import torch
 
 from explore_rl.config import load_config
+from explore_rl.graph.features import feature_names
+from explore_rl.models.graph_unet import INPUT_LEVELS
+from explore_rl.planning.learned import actor_logits
 from explore_rl.planning.policies import make_policy
 from explore_rl.runner import Explorer
 
@@ -36,18 +44,40 @@ class Both:
     name = "learned"
 
     def __init__(self, learned, em):
-        self.learned, self.em, self.records = learned, em, []
+        self.learned, self.em, self.records, self.ablations = learned, em, [], []
 
     def choose(self, state) -> int:
         mine, theirs = self.learned.choose(state), self.em.choose(state)
         lengths = np.array([c.length for c in state.candidates])
         rank = np.argsort(np.argsort(lengths, kind="stable"), kind="stable")
         self.records.append((lengths[mine], lengths[theirs], rank[mine], rank[theirs], len(lengths), mine == theirs))
+        self.ablations.append([(rank[c], c == theirs) for c in self.ablated_choices()])
         return mine
 
+    ablations: list
 
+    def ablated_choices(self) -> list[int]:
+        """The learned choice with each feature column made uninformative among the frontier
+        rows (every frontier row given the column's mean over them), one column at a time."""
+        encoded, graph = self.learned.last_encoded, self.learned.last_graph
+        rows = np.flatnonzero(encoded.action_mask)
+        choices = []
+        for column in range(encoded.x.shape[1]):
+            x = encoded.x.copy()
+            x[rows, column] = x[rows, column].mean()
+            INPUT_LEVELS.clear()
+            logits = actor_logits(self.learned.actor, dataclasses.replace(encoded, x=x))
+            masked = torch.where(torch.from_numpy(encoded.action_mask), logits, torch.tensor(-torch.inf))
+            choices.append(int(graph.candidate[encoded.nodes[int(torch.argmax(masked))]]))
+        return choices
+
+
+ABLATE = "--ablate" in sys.argv
+names = feature_names("extended")
+if ABLATE:
+    print("| scenes | " + " | ".join(names) + " |  (per column made uninformative: nearest chosen / same as EM)")
 for name, overrides_list in SCENES.items():
-    records = []
+    records, ablations = [], []
     for overrides in overrides_list:
         config = load_config([*overrides, "slam=model", "policy=learned", "explore.max_decisions=12",
                               "explore.progress_bar=false", "graph.max_nodes=1024"])
@@ -58,6 +88,12 @@ for name, overrides_list in SCENES.items():
         both = Both(learned, em)
         Explorer(config, policy=both).run()
         records += both.records
+        ablations += both.ablations
+    if ABLATE:
+        a = np.array(ablations, dtype=float)  # (decisions, columns, [rank, same as EM])
+        print(f"| {name} | " + " | ".join(f"{np.mean(a[:, c, 0] == 0):.2f} / {a[:, c, 1].mean():.2f}"
+                                          for c in range(a.shape[1])) + " |", flush=True)
+        continue
     r = np.array(records, dtype=float)
     print(f"| {name} | {len(r)} | {r[:, 4].mean():.1f} | {np.median(r[:, 0]):.1f} / {np.median(r[:, 1]):.1f} | "
           f"{r[:, 2].mean():.2f} / {r[:, 3].mean():.2f} | {np.mean(r[:, 2] == 0):.2f} / {np.mean(r[:, 3] == 0):.2f} | "
