@@ -17,6 +17,10 @@ raster of ``module`` cells (every wall lies on a raster line), in one *attempt*:
 8. check on the true free space (``scene/truth.py``): every start and every region is
    reachable for the robot's footprint.
 
+With ``lot_probability`` a plan is instead a parking lot (the garage's kind of space): one
+open floor, rows of parked cars with drive lanes between them and aisles around their ends,
+some spaces empty, the starts in the lanes; the same reachability check.
+
 An attempt that fails (no room for a corridor kind, an unconnectable region, clutter that
 does not fit, a disconnected check) is re-drawn with ``default_rng([seed, attempt])``, so
 a seed always gives the same plan; after ``max_attempts`` a clear error names the knobs.
@@ -36,6 +40,7 @@ from explore_rl.scene.procedural import place_random_objects
 from explore_rl.scene.truth import free_space, layout_grid
 
 CORRIDOR, ROOM, HALL = "corridor", "room", "hall"
+LOT = "lot"  # BuildingPlan.corridor of a parking lot (no corridors: one open region)
 Rect = tuple[int, int, int, int]  # y0, y1, x0, x1 in raster cells, half-open
 
 
@@ -130,6 +135,8 @@ def draw_plan(rng: np.random.Generator, config: SceneConfig, robot_radius: float
     sides = np.clip(np.round(rng.uniform(b.size_min, b.size_max, size=2) / m), low, max(low, cells(b.size_max, m, False)))
     size = tuple(float(v) for v in sides * m)
     shape = (int(round(size[1] / m)), int(round(size[0] / m)))
+    if b.lot_probability > 0 and rng.uniform() < b.lot_probability:  # no draw at 0: the family unchanged
+        return draw_lot(rng, config, robot_radius, attempt, size, shape)
     kind = str(rng.choice(b.corridor_kinds, p=np.asarray(b.corridor_weights) / sum(b.corridor_weights)))
     labels, kinds = corridor_raster(rng, shape, kind, b)
     labels, kinds = fill_rooms(rng, labels, kinds, b)
@@ -142,6 +149,60 @@ def draw_plan(rng: np.random.Generator, config: SceneConfig, robot_radius: float
     layout = add_clutter(rng, base, config)
     free_fraction = check_reachable(layout, labels, config, robot_radius)
     return BuildingPlan(layout, labels, tuple(kinds), kind, tuple(doors), tuple(joins), attempt, free_fraction)
+
+
+# --- a parking lot instead ------------------------------------------------------------
+
+
+def draw_lot(rng: np.random.Generator, config: SceneConfig, robot_radius: float, attempt: int,
+             size: tuple[float, float], shape: tuple[int, int]) -> BuildingPlan:
+    """A parking lot of ``size``: one open region, rows of cars, starts in the lanes."""
+    b = config.building
+    base = Layout("building", size, wall_height=config.wall_height, perimeter_thickness=config.wall_thickness)
+    cars = parked_cars(rng, size, config)
+    if not cars:
+        raise Redraw("no car fits the lot")
+    layout = replace(base, boxes=tuple(cars))
+    layout = replace(layout, starts=lot_starts(rng, layout, robot_radius + b.footprint_margin, b))
+    labels = np.zeros(shape, dtype=int)
+    free_fraction = check_reachable(layout, labels, config, robot_radius)
+    return BuildingPlan(layout, labels, (HALL,), LOT, (), (), attempt, free_fraction)
+
+
+def parked_cars(rng: np.random.Generator, size: tuple[float, float], config: SceneConfig) -> list[Box]:
+    """Rows of cars along x (each car's long side along y), a lane before every row and an
+    aisle of the narrowest lane's width at both ends of it (so every lane connects), every
+    space empty with ``lot_gap_probability``."""
+    b = config.building
+    across, along, height = config.car_size
+    sx, sy = size
+    cars: list[Box] = []
+    y = rng.uniform(*b.lot_lane_width) + along / 2
+    while y + along / 2 + b.lot_lane_width[0] <= sy:  # a lane stays behind the last row too
+        pitch, aisle = rng.uniform(*b.lot_car_pitch), b.lot_lane_width[0]
+        count = int((sx - 2 * aisle) // pitch)
+        xs = aisle + (np.arange(count) + 0.5) * pitch + (sx - 2 * aisle - count * pitch) / 2
+        for x in xs:
+            if rng.uniform() >= b.lot_gap_probability:
+                jitter = rng.uniform(-config.car_jitter, config.car_jitter, size=3)
+                cars.append(Box((float(x + jitter[0]), float(y + jitter[1])), (across, along, height),
+                                float(jitter[2])))
+        y += along + rng.uniform(*b.lot_lane_width)
+    return cars
+
+
+def lot_starts(rng: np.random.Generator, layout: Layout, clearance: float,
+               b: BuildingConfig) -> tuple[tuple[float, float, float], ...]:
+    """``num_starts`` distinct raster cell centres at least ``clearance`` from every wall and
+    car, random yaw."""
+    m = b.module
+    nx, ny = int(round(layout.size[0] / m)), int(round(layout.size[1] / m))
+    centers = (np.argwhere(np.ones((ny, nx), dtype=bool))[:, ::-1] + 0.5) * m
+    centers = centers[layout.geometry().signed_distance(centers) >= clearance]
+    if not len(centers):
+        raise Redraw("no start position clear of the cars")
+    chosen = rng.choice(len(centers), size=min(b.num_starts, len(centers)), replace=False)
+    return tuple((float(x), float(y), float(rng.uniform(-np.pi, np.pi))) for x, y in centers[chosen])
 
 
 # --- 2. corridors ------------------------------------------------------------------------

@@ -52,6 +52,13 @@ class BuildingConfig:
     pillar_radius: list[float] = field(default_factory=lambda: [0.15, 0.3])  # tall: wall height
     num_starts: int = 4
     max_attempts: int = 20  # re-draws (derived RNG) before a seed is given up with an error
+    # A parking lot instead (the garage's kind of space): one open floor with rows of parked
+    # cars (scene.car_size, scene.car_jitter) and drive lanes between them and around their
+    # ends. 0 keeps the family as it was (no draw is made).
+    lot_probability: float = 0.0
+    lot_lane_width: list[float] = field(default_factory=lambda: [3.0, 7.0])  # between rows, and aisles at their ends
+    lot_car_pitch: list[float] = field(default_factory=lambda: [2.5, 6.5])  # car centres along a row
+    lot_gap_probability: float = 0.25  # a parking space left empty
 
 
 @dataclass
@@ -80,7 +87,7 @@ class SceneConfig:
     object_clearance: float = 0.8
     # free space kept around every start
     start_clearance: float = 1.0
-    # garage only: car footprint/height and the y of each parking row
+    # garage (and scene=building's parking lots): car footprint/height; garage only: the y of each row
     car_size: list[float] = field(default_factory=lambda: [1.9, 4.5, 1.5])
     car_rows_y: list[float] = field(default_factory=lambda: [4.0, 11.25, 22.5])
     car_jitter: float = 0.15
@@ -104,8 +111,10 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
     for name, low in (("clutter_max", 0), ("max_extra_doors", 0), ("max_branches", 1), ("num_starts", 1),
                       ("max_attempts", 1)):
         checks.at_least(key + name, getattr(b, name), low)
-    for name in ("end_inset_probability", "hall_probability", "room_loop_probability"):
+    for name in ("end_inset_probability", "hall_probability", "room_loop_probability", "lot_probability",
+                 "lot_gap_probability"):
         checks.in_range(key + name, getattr(b, name), 0.0, 1.0)
+    _check_lot(scene, robot_radius)
     at_least = [  # (key, value, lower bound, what the bound is)
         ("size_max", b.size_max, b.size_min, "scene.building.size_min"),
         ("corridor_max_width", b.corridor_max_width, b.corridor_min_width, "scene.building.corridor_min_width"),
@@ -143,6 +152,28 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
             raise ValueError(f"{name if '.' in name else key + name}: objects of footprint radius {radius:g} m "
                              f"+ scene.object_clearance={scene.object_clearance:g} must fit in half of "
                              f"scene.building.size_min={b.size_min:g}")
+
+
+def _check_lot(scene: SceneConfig, robot_radius: float) -> None:
+    """The parking-lot knobs: ranges, lanes the robot drives and rows of cars that fit."""
+    b, key = scene.building, "scene.building."
+    for name in ("lot_lane_width", "lot_car_pitch"):
+        low_high = list(getattr(b, name))
+        if len(low_high) != 2 or not 0 < low_high[0] <= low_high[1] < float("inf"):
+            raise ValueError(f"{key}{name} must be [min, max] with 0 < min <= max (finite), got {low_high}")
+    car = list(scene.car_size)
+    if len(car) != 3 or not all(0 < v < float("inf") for v in car):
+        raise ValueError(f"scene.car_size must be [across, along, height] > 0 (m), got {car}")
+    lane = 2 * (robot_radius + b.footprint_margin)
+    if b.lot_lane_width[0] < lane:
+        raise ValueError(f"{key}lot_lane_width={list(b.lot_lane_width)}: its min must be >= 2 (robot.radius + "
+                         f"scene.building.footprint_margin) = {lane:g} so the robot drives every lane")
+    if b.lot_car_pitch[0] < car[0]:
+        raise ValueError(f"{key}lot_car_pitch={list(b.lot_car_pitch)}: its min must be >= the car's width "
+                         f"scene.car_size[0]={car[0]:g} (cars must not overlap)")
+    if b.lot_probability > 0 and b.size_min < car[1] + 2 * b.lot_lane_width[0]:
+        raise ValueError(f"{key}size_min={b.size_min:g} must be >= a car's length + 2 narrowest lanes "
+                         f"({car[1] + 2 * b.lot_lane_width[0]:g}) for a parking lot (lot_probability > 0)")
 
 
 def _check_choice(key: str, kinds: list[str], allowed: tuple[str, ...], weights_key: str,

@@ -251,6 +251,11 @@ BAD_VALUES = [
     ("pillar_radius", [0.2], "pillar_radius must be \\[min, max\\]"),
     ("num_starts", 0, "num_starts must be >= 1"),
     ("max_attempts", 0, "max_attempts must be >= 1"),
+    ("lot_probability", 1.5, "lot_probability must be in \\[0, 1\\]"),
+    ("lot_lane_width", [0.5, 3.0], "lot_lane_width=\\[0.5, 3.0\\]: its min must be >= 2 \\(robot.radius"),
+    ("lot_lane_width", [3.0], "lot_lane_width must be \\[min, max\\]"),
+    ("lot_car_pitch", [1.0, 3.0], "lot_car_pitch=\\[1.0, 3.0\\]: its min must be >= the car's width"),
+    ("lot_gap_probability", -0.5, "lot_gap_probability must be in \\[0, 1\\]"),
 ]
 
 
@@ -263,6 +268,14 @@ def test_bad_value_rejected_in_one_line(key, value, message):
     with pytest.raises(ValueError, match=message) as error:
         validate_building(config(**{key: value}), RADIUS)
     assert "\n" not in str(error.value) and "scene.building." in str(error.value)
+
+
+def test_a_lot_that_cannot_hold_a_row_is_rejected_only_when_lots_are_drawn():
+    with pytest.raises(ValueError, match="size_min=15 must be >= a car's length \\+ 2 narrowest lanes"):
+        validate_building(config(lot_probability=0.2, lot_lane_width=[6.0, 8.0]), RADIUS)
+    validate_building(config(lot_lane_width=[6.0, 8.0]), RADIUS)  # no lots drawn: no constraint
+    with pytest.raises(ValueError, match="scene.car_size must be"):
+        validate_building(dataclasses.replace(config(), car_size=[1.9, 4.5]), RADIUS)
 
 
 def test_bad_value_rejected_before_anything_runs():
@@ -305,3 +318,53 @@ def test_other_knobs_give_valid_plans(knobs):
             assert stats["loops"] == 0 and stats["objects"] == 0  # trees only: no ring, no extra doors
         if knobs.get("corridor_kinds") == ["loop"]:
             assert stats["corridor_loops"] == 1 and stats["loops"] >= 1
+
+
+# --- parking lots (lot_probability) ---------------------------------------------------------
+
+LOT_SEEDS = range(12)
+
+
+def test_lots_are_open_floors_with_rows_of_cars_and_reachable_starts():
+    b = BuildingConfig(lot_probability=1.0)
+    scene = SceneConfig(name="building", building=b)
+    across, along, height = scene.car_size
+    for seed in LOT_SEEDS:
+        plan = generate_building(config(seed, lot_probability=1.0), RADIUS)
+        assert plan.corridor == building_module.LOT and plan.kinds == (building_module.HALL,)
+        assert not plan.layout.walls and not plan.doors and not plan.layout.cylinders
+        assert plan.layout.boxes and all(box.size == (across, along, height) for box in plan.layout.boxes)
+        ys = sorted({round(box.center[1]) for box in plan.layout.boxes})
+        xs = np.array([box.center[0] for box in plan.layout.boxes])
+        # every car inside, with an aisle of the narrowest lane between its row's ends and the walls
+        assert np.all(xs - across / 2 >= b.lot_lane_width[0] - 2 * scene.car_jitter)
+        assert np.all(xs + across / 2 <= plan.layout.size[0] - b.lot_lane_width[0] + 2 * scene.car_jitter)
+        assert all(y + along / 2 < plan.layout.size[1] for y in ys)
+        assert len(plan.layout.starts) == b.num_starts
+        assert first_disconnected_start(plan.layout, layout_grid(plan.layout, 0.1), RADIUS) is None
+        grid = layout_grid(plan.layout, 0.1)
+        distance = clearance(plan.layout, grid)
+        for x, y, _ in plan.layout.starts:  # clear of every car and wall by the footprint (to a cell)
+            iy, ix = grid.world_to_cell(np.array([x, y]))
+            assert distance[iy, ix] >= RADIUS + b.footprint_margin - grid.resolution
+
+
+def test_lots_are_deterministic_and_the_default_family_draws_no_lot():
+    a, b = generate_building(config(3, lot_probability=1.0), RADIUS), generate_building(config(3, lot_probability=1.0),
+                                                                                        RADIUS)
+    assert a.layout == b.layout
+    for seed in range(6):  # at 0 no draw is made: the lot knobs cannot change a plan
+        plain = generate_building(config(seed), RADIUS)
+        other = generate_building(config(seed, lot_lane_width=[4.0, 8.0], lot_car_pitch=[3.0, 7.0],
+                                         lot_gap_probability=0.9), RADIUS)
+        assert plain.corridor != building_module.LOT and plain.layout == other.layout
+
+
+def test_some_plans_are_lots_at_an_intermediate_probability():
+    kinds = Counter(generate_building(config(seed, lot_probability=0.5), RADIUS).corridor for seed in range(16))
+    assert 0 < kinds[building_module.LOT] < 16
+
+
+def test_a_scene_of_a_lot_builds_and_is_explorable():
+    scene = make_scene(config(2, lot_probability=1.0), RobotConfig(), LidarConfig())
+    assert scene.truth.reachable[scene.truth.start_cell] and scene.model.ngeom > 4
