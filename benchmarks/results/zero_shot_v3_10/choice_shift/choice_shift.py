@@ -4,8 +4,8 @@ On the same states, the learned policy and EM each choose (the learned policy dr
 choice is only recorded): per decision the path length of each choice, its rank among the
 candidates by path length (0 = nearest), and whether they agree. Scenes: office layouts of
 training ([0, 1000)) and validation (1000-1002), building seeds of training (0-2) and
-validation (1000-1002), the same validation seeds with a big open hall in every plan, the
-garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
+validation (1000-1002), the same validation seeds with a big open hall in every plan, parking lots
+(the building family's lot plans, validation seeds), the garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
 
     python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate]
 
@@ -34,6 +34,11 @@ SCENES = {
     "buildings validation (1000-1002), every plan with a 14-16 m hall": [
         ["scene=building", f"scene.seed={s}", "scene.building.hall_probability=1.0",
          "scene.building.hall_min_side=14.0", "scene.building.hall_max_side=16.0"] for s in (1000, 1001, 1002)],
+    "parking lots, validation seeds 1000-1002 (scene.building.lot_probability=1)": [
+        ["scene=building", f"scene.seed={s}", "scene.building.lot_probability=1.0"] for s in (1000, 1001, 1002)],
+    "large parking lots (28-35 m), validation seeds 1000-1002": [
+        ["scene=building", f"scene.seed={s}", "scene.building.lot_probability=1.0", "scene.building.size_min=28.0",
+         "scene.building.size_max=35.0"] for s in (1000, 1001, 1002)],
     "garage (zero-shot)": [["scene=garage", f"seed={s}"] for s in (0, 1, 2)],
 }
 
