@@ -196,9 +196,8 @@ def lot_starts(rng: np.random.Generator, layout: Layout, clearance: float,
     """``num_starts`` distinct raster cell centres at least ``clearance`` from every wall and
     car, random yaw."""
     m = b.module
-    nx, ny = int(round(layout.size[0] / m)), int(round(layout.size[1] / m))
-    centers = (np.argwhere(np.ones((ny, nx), dtype=bool))[:, ::-1] + 0.5) * m
-    centers = centers[layout.geometry().signed_distance(centers) >= clearance]
+    shape = (int(round(layout.size[1] / m)), int(round(layout.size[0] / m)))
+    centers = clear_centers(np.ones(shape, dtype=bool), layout.geometry(), clearance, m)
     if not len(centers):
         raise Redraw("no start position clear of the cars")
     chosen = rng.choice(len(centers), size=min(b.num_starts, len(centers)), replace=False)
@@ -520,8 +519,7 @@ def choose_starts(rng: np.random.Generator, base: Layout, labels: np.ndarray, ki
     for region in order:
         if region in used:
             continue
-        centers = (np.argwhere(labels == region)[:, ::-1] + 0.5) * m  # (x, y) of the region's cells
-        centers = centers[geometry.signed_distance(centers) >= clearance]
+        centers = clear_centers(labels == region, geometry, clearance, m)
         if not len(centers):
             continue
         x, y = centers[int(rng.integers(len(centers)))]
@@ -532,6 +530,13 @@ def choose_starts(rng: np.random.Generator, base: Layout, labels: np.ndarray, ki
     if not starts:
         raise Redraw("no start position clear of the walls")
     return tuple(starts)
+
+
+def clear_centers(cells: np.ndarray, geometry, clearance: float, module: float) -> np.ndarray:
+    """``(x, y)`` centres of the raster ``cells`` (a ``[iy, ix]`` mask) at least ``clearance``
+    from every solid of ``geometry``."""
+    centers = (np.argwhere(cells)[:, ::-1] + 0.5) * module
+    return centers[geometry.signed_distance(centers) >= clearance]
 
 
 def random_building_object(rng: np.random.Generator, config: SceneConfig) -> Box | Cylinder:

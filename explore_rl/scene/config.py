@@ -114,7 +114,6 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
     for name in ("end_inset_probability", "hall_probability", "room_loop_probability", "lot_probability",
                  "lot_gap_probability"):
         checks.in_range(key + name, getattr(b, name), 0.0, 1.0)
-    _check_lot(scene, robot_radius)
     at_least = [  # (key, value, lower bound, what the bound is)
         ("size_max", b.size_max, b.size_min, "scene.building.size_min"),
         ("corridor_max_width", b.corridor_max_width, b.corridor_min_width, "scene.building.corridor_min_width"),
@@ -140,10 +139,11 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
     _check_choice(f"{key}corridor_kinds", b.corridor_kinds, CORRIDOR_KINDS, f"{key}corridor_weights",
                   b.corridor_weights)
     _check_choice(f"{key}object_kinds", b.object_kinds, OBJECT_KINDS, f"{key}object_weights", b.object_weights)
-    for name in ("table_length", "table_width", "pillar_radius"):
+    for name in ("table_length", "table_width", "pillar_radius", "lot_lane_width", "lot_car_pitch"):
         low_high = list(getattr(b, name))
         if len(low_high) != 2 or not 0 < low_high[0] <= low_high[1] < float("inf"):
             raise ValueError(f"{key}{name} must be [min, max] with 0 < min <= max (finite), got {low_high}")
+    _check_lot(scene, robot_radius)
     footprints = {"table_length": math.hypot(b.table_length[1], b.table_width[1]) / 2,
                   "pillar_radius": b.pillar_radius[1],
                   "scene.object_max_size": math.hypot(scene.object_max_size, scene.object_max_size) / 2}
@@ -155,12 +155,9 @@ def validate_building(scene: SceneConfig, robot_radius: float) -> None:
 
 
 def _check_lot(scene: SceneConfig, robot_radius: float) -> None:
-    """The parking-lot knobs: ranges, lanes the robot drives and rows of cars that fit."""
+    """The parking-lot knobs (their [min, max] ranges already checked): a car shape, lanes
+    the robot drives and rows of cars that fit."""
     b, key = scene.building, "scene.building."
-    for name in ("lot_lane_width", "lot_car_pitch"):
-        low_high = list(getattr(b, name))
-        if len(low_high) != 2 or not 0 < low_high[0] <= low_high[1] < float("inf"):
-            raise ValueError(f"{key}{name} must be [min, max] with 0 < min <= max (finite), got {low_high}")
     car = list(scene.car_size)
     if len(car) != 3 or not all(0 < v < float("inf") for v in car):
         raise ValueError(f"scene.car_size must be [across, along, height] > 0 (m), got {car}")
