@@ -9,7 +9,12 @@ PY="nice -n 5 /work/main/.venv/bin/python benchmarks/study_learning.py"
 OFFICE="--layouts 1000 1001 1002 1003 1004 1005 1006 1007 1008 1009 --starts 3 --max-decisions 10 --set graph.features=extended --workers 2"
 BUILD="--scene building --layouts 1000 1001 1002 1003 1004 --starts 4 --max-decisions 10 --set graph.features=extended --workers 2"
 LOTS="--scene building --layouts 1000 1001 1002 1003 1004 --starts 4 --max-decisions 10 --set graph.features=extended scene.building.lot_probability=1 --workers 2"
-for name in last update_00080; do
+# the mid-run candidate: the last snapshot at or before half of the run's updates
+updates=$(tail -1 /work/runs/dagger_lots/logs/a2c/scalars/updates.csv | cut -d, -f2 | cut -d. -f1)
+mid=$(ls /work/runs/dagger_lots/checkpoints | grep update_ | sed 's/update_0*//; s/.pt//' | awk -v h=$((updates / 2)) '$1 <= h' | sort -n | tail -1)
+mid=$(printf "update_%05d" $mid)
+echo "updates $updates, mid-run candidate $mid"
+for name in last $mid; do
   for kind in lots building office; do
     out=/work/runs/val/$kind/dagger_lots_$name
     mkdir -p $out

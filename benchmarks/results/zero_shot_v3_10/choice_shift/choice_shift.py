@@ -7,10 +7,11 @@ training ([0, 1000)) and validation (1000-1002), building seeds of training (0-2
 validation (1000-1002), the same validation seeds with a big open hall in every plan, parking lots
 (the building family's lot plans, validation seeds), the garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
 
-    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate]
+    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate] [--policy ACTOR]
 
 ``--ablate`` instead prints, per feature column, how often the learned policy takes the nearest
 frontier and EM's frontier when that column is made uninformative among the frontiers.
+``--policy`` takes another actor file or checkpoint than the default ``policy.checkpoint``.
 """
 
 import dataclasses
@@ -78,13 +79,14 @@ class Both:
 
 
 ABLATE = "--ablate" in sys.argv
+POLICY = [f"policy.checkpoint={sys.argv[sys.argv.index('--policy') + 1]}"] if "--policy" in sys.argv else []
 names = feature_names("extended")
 if ABLATE:
     print("| scenes | " + " | ".join(names) + " |  (per column made uninformative: nearest chosen / same as EM)")
 for name, overrides_list in SCENES.items():
     records, ablations = [], []
     for overrides in overrides_list:
-        config = load_config([*overrides, "slam=model", "policy=learned", "explore.max_decisions=12",
+        config = load_config([*overrides, "slam=model", "policy=learned", *POLICY, "explore.max_decisions=12",
                               "explore.progress_bar=false", "graph.max_nodes=1024"])
         rng = np.random.default_rng(0)
         learned = make_policy(config.policy, rng, planning=config.planning, robot=config.robot, graph=config.graph)
