@@ -7,11 +7,13 @@ training ([0, 1000)) and validation (1000-1002), building seeds of training (0-2
 validation (1000-1002), the same validation seeds with a big open hall in every plan, parking lots
 (the building family's lot plans, validation seeds), the garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
 
-    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate] [--policy ACTOR]
+    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate | --phases] [--policy ACTOR]
 
 ``--ablate`` instead prints, per feature column, how often the learned policy takes the nearest
 frontier and EM's frontier when that column is made uninformative among the frontiers.
 ``--policy`` takes another actor file or checkpoint than the default ``policy.checkpoint``.
+``--phases`` runs the garage and the large lots for 48 decisions and prints one row per 12
+decisions (does the pull to the nearest frontier grow late in an exploration?).
 """
 
 import dataclasses
@@ -56,7 +58,8 @@ class Both:
         mine, theirs = self.learned.choose(state), self.em.choose(state)
         lengths = np.array([c.length for c in state.candidates])
         rank = np.argsort(np.argsort(lengths, kind="stable"), kind="stable")
-        self.records.append((lengths[mine], lengths[theirs], rank[mine], rank[theirs], len(lengths), mine == theirs))
+        self.records.append((lengths[mine], lengths[theirs], rank[mine], rank[theirs], len(lengths), mine == theirs,
+                             len(self.records)))
         self.ablations.append([(rank[c], c == theirs) for c in self.ablated_choices()])
         return mine
 
@@ -79,6 +82,11 @@ class Both:
 
 
 ABLATE = "--ablate" in sys.argv
+PHASES = "--phases" in sys.argv
+DECISIONS, PHASE = (48, 12) if PHASES else (12, 12)
+if PHASES:
+    SCENES = {name: SCENES[name] for name in ("large parking lots (28-35 m), validation seeds 1000-1002",
+                                               "garage (zero-shot)")}
 POLICY = [f"policy.checkpoint={sys.argv[sys.argv.index('--policy') + 1]}"] if "--policy" in sys.argv else []
 names = feature_names("extended")
 if ABLATE:
@@ -86,7 +94,7 @@ if ABLATE:
 for name, overrides_list in SCENES.items():
     records, ablations = [], []
     for overrides in overrides_list:
-        config = load_config([*overrides, "slam=model", "policy=learned", *POLICY, "explore.max_decisions=12",
+        config = load_config([*overrides, "slam=model", "policy=learned", *POLICY, f"explore.max_decisions={DECISIONS}",
                               "explore.progress_bar=false", "graph.max_nodes=1024"])
         rng = np.random.default_rng(0)
         learned = make_policy(config.policy, rng, planning=config.planning, robot=config.robot, graph=config.graph)
@@ -101,7 +109,12 @@ for name, overrides_list in SCENES.items():
         print(f"| {name} | " + " | ".join(f"{np.mean(a[:, c, 0] == 0):.2f} / {a[:, c, 1].mean():.2f}"
                                           for c in range(a.shape[1])) + " |", flush=True)
         continue
-    r = np.array(records, dtype=float)
-    print(f"| {name} | {len(r)} | {r[:, 4].mean():.1f} | {np.median(r[:, 0]):.1f} / {np.median(r[:, 1]):.1f} | "
-          f"{r[:, 2].mean():.2f} / {r[:, 3].mean():.2f} | {np.mean(r[:, 2] == 0):.2f} / {np.mean(r[:, 3] == 0):.2f} | "
-          f"{r[:, 5].mean():.2f} |", flush=True)
+    rows = np.array(records, dtype=float)
+    for phase in range(0, DECISIONS, PHASE):
+        r = rows[(rows[:, 6] >= phase) & (rows[:, 6] < phase + PHASE)]
+        if len(r) == 0:
+            continue
+        label = f"{name}, decisions {phase}-{phase + PHASE - 1}" if PHASES else name
+        print(f"| {label} | {len(r)} | {r[:, 4].mean():.1f} | {np.median(r[:, 0]):.1f} / {np.median(r[:, 1]):.1f} | "
+              f"{r[:, 2].mean():.2f} / {r[:, 3].mean():.2f} | {np.mean(r[:, 2] == 0):.2f} / {np.mean(r[:, 3] == 0):.2f} | "
+              f"{r[:, 5].mean():.2f} |", flush=True)
