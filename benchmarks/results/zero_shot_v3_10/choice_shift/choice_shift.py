@@ -7,13 +7,15 @@ training ([0, 1000)) and validation (1000-1002), building seeds of training (0-2
 validation (1000-1002), the same validation seeds with a big open hall in every plan, parking lots
 (the building family's lot plans, validation seeds), the garage (zero-shot). ``slam=model`` (fast), 12 decisions each.
 
-    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate | --phases] [--policy ACTOR]
+    python benchmarks/results/zero_shot_v3_10/choice_shift/choice_shift.py [--ablate | --phases] [--policy ACTOR] \
+        [--only TEXT ...]
 
 ``--ablate`` instead prints, per feature column, how often the learned policy takes the nearest
 frontier and EM's frontier when that column is made uninformative among the frontiers.
 ``--policy`` takes another actor file or checkpoint than the default ``policy.checkpoint``.
 ``--phases`` runs the garage and the large lots for 48 decisions and prints one row per 12
-decisions (does the pull to the nearest frontier grow late in an exploration?).
+decisions (does the pull to the nearest frontier grow late in an exploration?). ``--only TEXT``
+keeps the scene rows whose name contains TEXT (repeatable).
 """
 
 import dataclasses
@@ -42,6 +44,14 @@ SCENES = {
     "large parking lots (28-35 m), validation seeds 1000-1002": [
         ["scene=building", f"scene.seed={s}", "scene.building.lot_probability=1.0", "scene.building.size_min=28.0",
          "scene.building.size_max=35.0"] for s in (1000, 1001, 1002)],
+    "sparse large lots (28-35 m, lanes 6.5-7 m, pitch 6-6.5 m, half the spaces empty), validation 1000-1002": [
+        ["scene=building", f"scene.seed={s}", "scene.building.lot_probability=1.0", "scene.building.size_min=28.0",
+         "scene.building.size_max=35.0", "scene.building.lot_lane_width=[6.5,7.0]",
+         "scene.building.lot_car_pitch=[6.0,6.5]", "scene.building.lot_gap_probability=0.5"] for s in (1000, 1001, 1002)],
+    "buildings with a 25-30 m hall (28-35 m plans), validation 1000-1002": [
+        ["scene=building", f"scene.seed={s}", "scene.building.hall_probability=1.0", "scene.building.size_min=28.0",
+         "scene.building.size_max=35.0", "scene.building.hall_min_side=25.0", "scene.building.hall_max_side=30.0"]
+        for s in (1000, 1001, 1002)],
     "garage (zero-shot)": [["scene=garage", f"seed={s}"] for s in (0, 1, 2)],
 }
 
@@ -84,6 +94,9 @@ class Both:
 ABLATE = "--ablate" in sys.argv
 PHASES = "--phases" in sys.argv
 DECISIONS, PHASE = (48, 12) if PHASES else (12, 12)
+ONLY = [sys.argv[i + 1] for i, argument in enumerate(sys.argv) if argument == "--only"]
+if ONLY:
+    SCENES = {name: scenes for name, scenes in SCENES.items() if any(text in name for text in ONLY)}
 if PHASES:
     SCENES = {name: SCENES[name] for name in ("large parking lots (28-35 m), validation seeds 1000-1002",
                                                "garage (zero-shot)")}
