@@ -163,7 +163,7 @@ def draw_lot(rng: np.random.Generator, config: SceneConfig, robot_radius: float,
     if not cars:
         raise Redraw("no car fits the lot")
     layout = replace(base, boxes=tuple(cars))
-    layout = replace(layout, starts=lot_starts(rng, layout, robot_radius + b.footprint_margin, b))
+    layout = replace(layout, starts=lot_starts(rng, layout, shape, robot_radius + b.footprint_margin, b))
     labels = np.zeros(shape, dtype=int)
     free_fraction = check_reachable(layout, labels, config, robot_radius)
     return BuildingPlan(layout, labels, (HALL,), LOT, (), (), attempt, free_fraction)
@@ -191,13 +191,11 @@ def parked_cars(rng: np.random.Generator, size: tuple[float, float], config: Sce
     return cars
 
 
-def lot_starts(rng: np.random.Generator, layout: Layout, clearance: float,
+def lot_starts(rng: np.random.Generator, layout: Layout, shape: tuple[int, int], clearance: float,
                b: BuildingConfig) -> tuple[tuple[float, float, float], ...]:
-    """``num_starts`` distinct raster cell centres at least ``clearance`` from every wall and
-    car, random yaw."""
-    m = b.module
-    shape = (int(round(layout.size[1] / m)), int(round(layout.size[0] / m)))
-    centers = clear_centers(np.ones(shape, dtype=bool), layout.geometry(), clearance, m)
+    """``num_starts`` distinct centres of the lot's raster cells (``shape``) at least
+    ``clearance`` from every wall and car, random yaw."""
+    centers = clear_centers(np.ones(shape, dtype=bool), layout.geometry(), clearance, b.module)
     if not len(centers):
         raise Redraw("no start position clear of the cars")
     chosen = rng.choice(len(centers), size=min(b.num_starts, len(centers)), replace=False)

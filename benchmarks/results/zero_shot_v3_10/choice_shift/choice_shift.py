@@ -18,8 +18,8 @@ decisions (does the pull to the nearest frontier grow late in an exploration?). 
 keeps the scene rows whose name contains TEXT (repeatable).
 """
 
+import argparse
 import dataclasses
-import sys
 
 import numpy as np
 import torch
@@ -91,16 +91,21 @@ class Both:
         return choices
 
 
-ABLATE = "--ablate" in sys.argv
-PHASES = "--phases" in sys.argv
+parser = argparse.ArgumentParser(description="Does the learned policy lean to the nearest frontier?")
+mode = parser.add_mutually_exclusive_group()
+mode.add_argument("--ablate", action="store_true", help="one feature column made uninformative at a time")
+mode.add_argument("--phases", action="store_true", help="garage and large lots, 48 decisions, rows per 12")
+parser.add_argument("--policy", help="an actor file or checkpoint instead of the default policy.checkpoint")
+parser.add_argument("--only", action="append", default=[], metavar="TEXT", help="keep scene rows containing TEXT")
+args = parser.parse_args()
+ABLATE, PHASES = args.ablate, args.phases
+POLICY = [f"policy.checkpoint={args.policy}"] if args.policy else []
 DECISIONS, PHASE = (48, 12) if PHASES else (12, 12)
-ONLY = [sys.argv[i + 1] for i, argument in enumerate(sys.argv) if argument == "--only"]
-if ONLY:
-    SCENES = {name: scenes for name, scenes in SCENES.items() if any(text in name for text in ONLY)}
 if PHASES:
     SCENES = {name: SCENES[name] for name in ("large parking lots (28-35 m), validation seeds 1000-1002",
                                                "garage (zero-shot)")}
-POLICY = [f"policy.checkpoint={sys.argv[sys.argv.index('--policy') + 1]}"] if "--policy" in sys.argv else []
+if args.only:
+    SCENES = {name: scenes for name, scenes in SCENES.items() if any(text in name for text in args.only)}
 names = feature_names("extended")
 if ABLATE:
     print("| scenes | " + " | ".join(names) + " |  (per column made uninformative: nearest chosen / same as EM)")
