@@ -168,7 +168,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--quick", action="store_true", help="a run that finishes in under a minute")
     parser.add_argument("--smoke", action="store_true",
                         help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
                         help="extra config overrides for every run (e.g. slam.keyframe_distance=1.0)")
     parser.add_argument("--profile", type=Path, default=None, metavar="PATH",
                         help="write a cProfile table of an incremental replay of the first seed here")

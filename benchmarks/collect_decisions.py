@@ -56,7 +56,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--sample", action="store_true", help="sample the actor's policy instead of greedy")
     parser.add_argument("--features", default="extended", help="graph.features stored (extended holds paper's)")
     parser.add_argument("--minutes", type=float, default=0.0, help="stop starting episodes after this (0 = none)")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="more config overrides")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE", help="more config overrides")
     parser.add_argument("--smoke", action="store_true", help="2 short episodes, for the test suite")
     args = parser.parse_args(argv)
     if args.smoke:

@@ -61,7 +61,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--scene", default="office")
     parser.add_argument("--seed", type=int, default=0, help="weights and minibatch order")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="config overrides (model.*, algo.lr)")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE", help="config overrides (model.*, algo.lr)")
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--smoke", action="store_true", help="a tiny dataset, 2 steps, 1 episode: that it runs")
     args = parser.parse_args(argv)

@@ -135,7 +135,7 @@ def write_curves_csv(runs: dict[str, dict], path: Path) -> None:
                     writer.writerow([name, key, int(decisions), round(minutes, 3), value])
 
 
-def parse_args() -> argparse.Namespace:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--policy", default=None, help="an actor file or training checkpoint to evaluate")
     parser.add_argument("--runs", nargs="*", default=[], help="training run folders to evaluate")
@@ -143,7 +143,7 @@ def parse_args() -> argparse.Namespace:
                         help="scene seeds to evaluate on (--runs: default the run's env.validation_layouts)")
     parser.add_argument("--scene", default="office", help="office, building, street, garage or file (--policy)")
     parser.add_argument("--slam", default="model", help="the front end of the episodes (--policy): model or icp")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
                         help="further config overrides of the episodes, e.g. scene.path=lab.yaml")
     parser.add_argument("--starts", type=int, default=9, help="the first N starts of each layout")
     parser.add_argument("--max-decisions", type=int, default=10)
@@ -154,7 +154,7 @@ def parse_args() -> argparse.Namespace:
                         help="score on the policy's own training layouts (an in-sample figure, labelled so)")
     parser.add_argument("--out", default=None)
     parser.add_argument("--smoke", action="store_true", help="train a 5-decision run and evaluate it on 1 start")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if not args.policy and not args.runs and not args.smoke:
         parser.error("give --policy FILE or --runs DIR ... (or --smoke)")
     if args.starts < 1 or args.max_decisions < 1 or args.workers < 1:

@@ -124,7 +124,7 @@ def main() -> None:
     parser.add_argument("--frontend", default="icp", choices=["icp", "model"])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None, help=f"default {RESULTS}")
-    parser.add_argument("--override", nargs="*", default=[],
+    parser.add_argument("--override", nargs="*", action="extend", default=[],
                         help="Hydra overrides for every run, e.g. planning.reward.alpha=1")
     parser.add_argument("--resume", action="store_true", help="keep runs already in ordering_runs.jsonl")
     parser.add_argument("--summarise-only", action="store_true", help="no new runs: table/plots from the log")

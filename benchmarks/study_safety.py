@@ -150,7 +150,7 @@ def main() -> None:
     parser.add_argument("--policies", nargs="+", default=POLICIES)
     parser.add_argument("--no-icp", action="store_true", help="skip the slam=icp pairs")
     parser.add_argument("--icp-seeds", type=int, default=1, help="seeds of the slam=icp pair (office, nearest)")
-    parser.add_argument("--override", nargs="*", default=[], help="Hydra overrides for every run")
+    parser.add_argument("--override", nargs="*", action="extend", default=[], help="Hydra overrides for every run")
     parser.add_argument("--resume", action="store_true", help="skip runs already in the run log")
     parser.add_argument("--summarise-only", action="store_true", help="only rebuild the table from the run log")
     parser.add_argument("--out", type=Path, default=RESULTS / "safety")

@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=int, default=1000, help="minibatches of algo.dagger_batch decisions")
     parser.add_argument("--scenes", nargs="*", default=None, help="train on these scenes' decisions only")
     parser.add_argument("--seed", type=int, default=0, help="initial weights and minibatch order")
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
                         help="config overrides, e.g. graph.features=extended algo.lr=1e-3")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")

@@ -7,6 +7,7 @@ cores) and the working directory ``cwd`` (a tmp dir, so nothing lands in the che
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
@@ -16,6 +17,15 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def load_script(script: str):
+    """Import ``ROOT/script`` as a module (its functions, without running its main)."""
+    path = ROOT / script
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def run_script(script: str, *args: str, cwd: Path, timeout: float = 120.0) -> dict:

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 
-from tests.benchmarks.smoke import run_script
+import pytest
+
+from tests.benchmarks.smoke import load_script, run_script
 
 
 def test_study_learning_smoke(tmp_path):
@@ -24,3 +26,13 @@ def test_study_learning_smoke(tmp_path):
     assert len(lines) == 4  # one episode per policy: the second evaluation came from the cache
     assert {json.loads(line)["policy"] for line in lines} == {"learned", "em", "nearest", "random"}
     assert (tmp_path / "learning_curves.png").is_file() and (tmp_path / "protocol.json").is_file()
+
+
+@pytest.mark.parametrize("script, required", [("benchmarks/study_learning.py", ["--policy", "actor.pt"]),
+                                              ("benchmarks/collect_decisions.py", ["--out", "data"]),
+                                              ("benchmarks/study_data.py", ["--dataset", "data"])])
+def test_repeated_set_flags_add_up(script, required):
+    """``--set A --set B`` keeps both overrides (a second flag once silently dropped the first)."""
+    args = load_script(script).parse_args([*required, "--set", "graph.features=extended",
+                                           "--set", "scene.building.lot_probability=1", "x.y=2"])
+    assert args.set == ["graph.features=extended", "scene.building.lot_probability=1", "x.y=2"]
