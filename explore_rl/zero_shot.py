@@ -17,8 +17,11 @@ is taken at the same coverage:
   policy's trials independently (the trials of two policies are separate explorations).
   A target is met only when the whole interval is on the right side of it.
 
-Several scenes with one trial each (a sweep over generated buildings) are also pooled:
-the geometric mean of the per-scene ratios, the interval from resampling scenes.
+Several scenes are also pooled: the geometric mean of the per-scene ratios, the interval
+from a two-stage resampling -- scenes, then each drawn scene's trials (a sweep over generated
+buildings with one trial each resamples scenes only; two named scenes with ten trials each
+keep both their trials' spread and the spread between them, so two similar scene ratios do
+not make a narrow interval).
 """
 
 from __future__ import annotations
@@ -105,17 +108,30 @@ def _verdicts(entry: dict, targets: ZeroShotTargets) -> dict:
 KEYS = ("travel_ratio", "error_ratio", "equal_travel_error_ratio", "speedup")
 
 
-def scene_check(runs: Sequence[dict], policy: str, reference: str, targets: ZeroShotTargets,
-                resamples: int = RESAMPLES, seed: int = 0) -> dict | None:
-    """The targets on one scene's trials; None if either policy has no finished trial."""
+def _scene_points(runs: Sequence[dict], policy: str, reference: str, targets: ZeroShotTargets
+                  ) -> tuple[float, list[TrialPoint], list[TrialPoint]] | None:
+    """One scene's common coverage and both policies' trial points there; None if either
+    policy has no finished trial."""
     mine = [r for r in runs if r["policy"] == policy and r["status"] != "error" and r["rows"]]
     theirs = [r for r in runs if r["policy"] == reference and r["status"] != "error" and r["rows"]]
     if not mine or not theirs:
         return None
     coverage = common_coverage(mine + theirs, targets.coverage)
-    points = [trial_point(r, coverage) for r in mine]
-    reference_points = [trial_point(r, coverage) for r in theirs]
-    entry = {"scene": runs[0]["scene"], "policy": policy, "reference": reference, "coverage": coverage,
+    return coverage, [trial_point(r, coverage) for r in mine], [trial_point(r, coverage) for r in theirs]
+
+
+def _resample(points: Sequence[TrialPoint], rng: np.random.Generator) -> list[TrialPoint]:
+    """The trials drawn with replacement (one trial stays itself, drawing nothing)."""
+    if len(points) < 2:
+        return list(points)
+    return [points[i] for i in rng.integers(0, len(points), len(points))]
+
+
+def scene_check(scene: str, coverage: float, points: Sequence[TrialPoint], reference_points: Sequence[TrialPoint],
+                policy: str, reference: str, targets: ZeroShotTargets, resamples: int = RESAMPLES,
+                seed: int = 0) -> dict:
+    """The targets on one scene's trial points at its common ``coverage``."""
+    entry = {"scene": scene, "policy": policy, "reference": reference, "coverage": coverage,
              "at_stop_coverage": bool(coverage >= targets.coverage), "trials": len(points),
              "reference_trials": len(reference_points),
              "travel_m": float(np.mean([p.travel_m for p in points])),
@@ -126,8 +142,7 @@ def scene_check(runs: Sequence[dict], policy: str, reference: str, targets: Zero
     entry["reference_map_error_at_equal_travel_m"] = entry["map_error_m"] / entry["equal_travel_error_ratio"]
 
     def resampled(rng: np.random.Generator) -> dict[str, float]:
-        return _ratios([points[i] for i in rng.integers(0, len(points), len(points))],
-                       [reference_points[i] for i in rng.integers(0, len(reference_points), len(reference_points))])
+        return _ratios(_resample(points, rng), _resample(reference_points, rng))
 
     if min(len(points), len(reference_points)) < 2:  # one trial has no spread: no interval, no verdict
         entry.update({f"{key}_ci95": [float("nan"), float("nan")] for key in KEYS})
@@ -137,9 +152,10 @@ def scene_check(runs: Sequence[dict], policy: str, reference: str, targets: Zero
     return entry | _verdicts(entry, targets)
 
 
-def pooled_check(entries: Sequence[dict], targets: ZeroShotTargets, resamples: int = RESAMPLES,
-                 seed: int = 0) -> dict:
-    """The geometric mean of per-scene ratios over ``entries``, resampling scenes."""
+def pooled_check(entries: Sequence[dict], scenes: Sequence[tuple[list[TrialPoint], list[TrialPoint]]],
+                 targets: ZeroShotTargets, resamples: int = RESAMPLES, seed: int = 0) -> dict:
+    """The geometric mean of the per-scene ratios of ``entries``; the interval resamples
+    scenes, then the trials (``scenes``: each entry's policy and reference trial points)."""
     logs = {key: np.log([e[key] for e in entries]) for key in KEYS}
     pooled = {"scene": f"all {len(entries)} scenes", "policy": entries[0]["policy"],
               "reference": entries[0]["reference"], "scenes": len(entries),
@@ -147,8 +163,9 @@ def pooled_check(entries: Sequence[dict], targets: ZeroShotTargets, resamples: i
               **{key: float(np.exp(values.mean())) for key, values in logs.items()}}
 
     def resampled(rng: np.random.Generator) -> dict[str, float]:
-        index = rng.integers(0, len(entries), len(entries))
-        return {key: float(np.exp(values[index].mean())) for key, values in logs.items()}
+        drawn = [_ratios(_resample(scenes[i][0], rng), _resample(scenes[i][1], rng))
+                 for i in rng.integers(0, len(scenes), len(scenes))]
+        return {key: float(np.exp(np.mean(np.log([d[key] for d in drawn])))) for key in KEYS}
 
     draws = _bootstrap(resampled, resamples, seed)
     pooled.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
@@ -159,13 +176,16 @@ def check_targets(runs: Sequence[dict], policy: str = "learned", reference: str 
                   targets: ZeroShotTargets = ZeroShotTargets(), resamples: int = RESAMPLES) -> list[dict]:
     """Per scene (and pooled over scenes when there are several), the zero-shot targets of
     ``policy`` against ``reference``; empty if the report lacks either policy."""
-    entries = []
+    entries, scenes = [], []
     for scene in sorted({r["scene"] for r in runs}):
-        entry = scene_check([r for r in runs if r["scene"] == scene], policy, reference, targets, resamples)
-        if entry is not None:
-            entries.append(entry)
+        found = _scene_points([r for r in runs if r["scene"] == scene], policy, reference, targets)
+        if found is not None:
+            coverage, points, reference_points = found
+            entries.append(scene_check(scene, coverage, points, reference_points, policy, reference, targets,
+                                       resamples))
+            scenes.append((points, reference_points))
     if len(entries) > 1:
-        entries.append(pooled_check(entries, targets, resamples))
+        entries.append(pooled_check(entries, scenes, targets, resamples))
     return entries
 
 

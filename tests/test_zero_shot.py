@@ -103,3 +103,18 @@ def test_write_summary_adds_the_target_table_and_json(tmp_path):
     assert saved["targets"] == {"coverage": 0.85, "max_travel_ratio": 1.1, "max_error_ratio": 1.1, "min_speedup": 5.0}
     assert saved["entries"][0]["coverage"] == 0.85 and "Zero-shot targets" in (tmp_path / "summary.md").read_text()
     assert ZeroShotTargets().coverage == saved["entries"][0]["coverage"]
+
+
+def test_two_scenes_with_many_trials_pool_with_their_trials_spread():
+    """Two named scenes with the same ratio but widely spread trials: resampling scenes alone
+    would give a zero-width interval at that ratio; the trials' spread must widen it."""
+    runs = []
+    for scene in ("street", "garage"):
+        runs += [run("learned", t, [travel], [0.85], [0.1], scene=scene) for t, travel in enumerate([40.0, 160.0] * 3)]
+        runs += [run("em", t, [100.0], [0.85], [0.1], scene=scene) for t in range(6)]
+    *scenes, pooled = zero_shot.check_targets(runs, resamples=500)
+    assert [e["travel_ratio"] for e in scenes] == pytest.approx([1.0, 1.0]) and pooled["scenes"] == 2
+    assert pooled["travel_ratio"] == pytest.approx(1.0)
+    low, high = pooled["travel_ratio_ci95"]
+    assert low < 0.8 and high > 1.2 and not pooled["travel_met"]
+    assert pooled["error_ratio_ci95"] == pytest.approx([1.0, 1.0])  # no spread anywhere: none in the pool
