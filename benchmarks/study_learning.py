@@ -11,13 +11,15 @@ interval, pooled and per layout. The policy's training layouts are refused.
     # a policy file (actor file or training checkpoint) on held-out layouts
     python benchmarks/study_learning.py --policy policies/office_paper/actor.pt --layouts 2000 2001 \
         [--scene office|building|street|garage|file] [--set scene.path=lab.yaml ...] --starts 9 \
-        --max-decisions 10 [--workers 2] [--out DIR]
+        --max-decisions 10 [--workers 2] [--out DIR] [--compare OTHER_ACTOR]
     # training runs: each run's checkpoint (and numbered snapshots, for model selection) on
     # its validation layouts (default) or --layouts; training curves against wall-clock
     python benchmarks/study_learning.py --runs runs/a runs/b [--snapshots] [--checkpoint last|best|update_<k>]
 
 The last line of stdout is one JSON object: ``policies`` (each ``mean_reward``, ``ci95``,
-``em_agreement``, ...), ``gap_closed``, ``gap_closed_ci95``, ``layouts``, ``per_layout``
+``em_agreement``, ...), ``gap_closed``, ``gap_closed_ci95``, ``layouts``, ``per_layout``,
+with ``--compare`` also ``compare`` (the other actor's ``gap_closed`` on the same episodes and
+``difference`` = this one's minus it, with a paired ``difference_ci95``)
 (for ``--runs``: one such object per run and checkpoint under ``runs``).
 """
 
@@ -39,9 +41,12 @@ from explore_rl.config import Config, load_config, load_saved_config  # noqa: E4
 from explore_rl.trainer.evaluate import (  # noqa: E402
     POLICIES,
     actor_training_config,
+    EpisodeResult,
     check_held_out,
     episode_specs,
+    gap_closed,
     layout_range,
+    paired_bootstrap,
     run_protocol,
     summarize,
     training_layouts,
@@ -58,6 +63,37 @@ def evaluate_policy(config: Config, actor_path: Path | None, layouts: list[int],
     results = run_protocol(config, specs, policies, max_decisions, actor_path=actor_path, workers=workers,
                            cache=out / "episodes.jsonl")
     return summarize(results)
+
+
+def policy_difference(results: dict[str, list[EpisodeResult]], other: list[EpisodeResult]) -> dict:
+    """``other``'s gap_closed on the same episodes as ``results``' learned policy, and the
+    difference learned - other with a paired 95 % interval (the same resampled episodes for
+    both learned policies, EM and random)."""
+    if [(e.layout, e.start) for e in other] != [(e.layout, e.start) for e in results["learned"]]:
+        raise ValueError("the two policies' results are not of the same episodes")
+    values = {name: np.array([e.mean_reward for e in results[name]]) for name in ("learned", "em", "random")}
+    values["other"] = np.array([e.mean_reward for e in other])
+
+    def gap_of(column: str, v: dict[str, np.ndarray]) -> float:
+        return gap_closed({"learned": float(np.mean(v[column])), "em": float(np.mean(v["em"])),
+                           "random": float(np.mean(v["random"]))})
+
+    def difference(v: dict[str, np.ndarray]) -> float:
+        return gap_of("learned", v) - gap_of("other", v)
+
+    return {"gap_closed": gap_of("other", values), "gap_closed_ci95": list(paired_bootstrap(values, lambda v: gap_of(
+        "other", v))), "difference": difference(values), "difference_ci95": list(paired_bootstrap(values, difference))}
+
+
+def compare_policy(config: Config, other: Path, layouts: list[int], starts: int, max_decisions: int, workers: int,
+                   out: Path, policy: Path) -> dict:
+    """``--compare``: the other actor on the same episodes (the cache has the baselines)."""
+    specs = episode_specs(layouts, starts)
+    cache = out / "episodes.jsonl"
+    mine = run_protocol(config, specs, ("learned", "em", "random"), max_decisions, actor_path=policy,
+                        workers=workers, cache=cache)
+    theirs = run_protocol(config, specs, ("learned",), max_decisions, actor_path=other, workers=workers, cache=cache)
+    return {"policy": str(other), **policy_difference(mine, theirs["learned"])}
 
 
 def print_summary(title: str, summary: dict) -> None:
@@ -138,6 +174,8 @@ def write_curves_csv(runs: dict[str, dict], path: Path) -> None:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--policy", default=None, help="an actor file or training checkpoint to evaluate")
+    parser.add_argument("--compare", default=None, metavar="FILE",
+                        help="--policy: another actor on the same episodes, and the gap_closed difference")
     parser.add_argument("--runs", nargs="*", default=[], help="training run folders to evaluate")
     parser.add_argument("--layouts", type=int, nargs="*", default=None,
                         help="scene seeds to evaluate on (--runs: default the run's env.validation_layouts)")
@@ -157,6 +195,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     if not args.policy and not args.runs and not args.smoke:
         parser.error("give --policy FILE or --runs DIR ... (or --smoke)")
+    if args.compare and not args.policy:
+        parser.error("--compare FILE needs --policy FILE (the two are scored on the same episodes)")
     if args.starts < 1 or args.max_decisions < 1 or args.workers < 1:
         parser.error("--starts, --max-decisions and --workers must be >= 1")
     return args
@@ -196,6 +236,17 @@ def main() -> None:
         summary = evaluate_policy(config, Path(args.policy), layouts, args.starts, args.max_decisions, args.workers,
                                   out)
         print_summary(f"{args.policy} on {config.scene.name} ({'held out' if is_held_out else 'IN-SAMPLE'})", summary)
+        if args.compare:
+            other_scene, other_trained = training_layouts(actor_training_config(args.compare))
+            try:
+                held_out(args, config.scene.name, layouts, other_scene, other_trained, args.compare)
+            except ValueError as error:
+                raise SystemExit(f"error: {error}") from None
+            summary["compare"] = compare_policy(config, Path(args.compare), layouts, args.starts, args.max_decisions,
+                                                args.workers, out, Path(args.policy))
+            figures = summary["compare"]
+            print(f"  {args.compare}: gap_closed {figures['gap_closed']:+.3f}; difference {figures['difference']:+.3f} "
+                  f"[{figures['difference_ci95'][0]:+.3f}, {figures['difference_ci95'][1]:+.3f}] (paired)")
         (out / "protocol.json").write_text(json.dumps(summary, indent=1))
         result.update(summary, policy=args.policy, scene=config.scene.name, slam=config.slam.frontend,
                       held_out=is_held_out)

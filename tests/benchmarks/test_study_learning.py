@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from tests.benchmarks.smoke import load_script, run_script
@@ -36,3 +37,26 @@ def test_repeated_set_flags_add_up(script, required):
     args = load_script(script).parse_args([*required, "--set", "graph.features=extended",
                                            "--set", "scene.building.lot_probability=1", "x.y=2"])
     assert args.set == ["graph.features=extended", "scene.building.lot_probability=1", "x.y=2"]
+
+
+def episode(policy: str, layout: int, start: int, reward: float):
+    from explore_rl.trainer.evaluate import EpisodeResult
+
+    return EpisodeResult(policy, layout, start, 0, [reward], [True], 0.5, 10.0, 0.1)
+
+
+def test_policy_difference_is_paired_on_the_same_episodes():
+    difference = load_script("benchmarks/study_learning.py").policy_difference
+    rng = np.random.default_rng(0)
+    hardness = rng.normal(0.0, 0.3, 12)  # shared by every policy: pairing cancels it
+    results = {name: [episode(name, 1000, k, level + h) for k, h in enumerate(hardness)]
+               for name, level in (("learned", 0.6), ("em", 0.8), ("random", 0.0))}
+    other = [episode("learned", 1000, k, 0.4 + h) for k, h in enumerate(hardness)]
+    figures = difference(results, other)
+    assert figures["gap_closed"] == pytest.approx(0.5) and figures["difference"] == pytest.approx(0.25)
+    low, high = figures["difference_ci95"]  # every resample gives the same difference: a point
+    assert low == pytest.approx(0.25) and high == pytest.approx(0.25)
+    low, high = figures["gap_closed_ci95"]
+    assert low <= 0.5 <= high
+    with pytest.raises(ValueError, match="same episodes"):
+        difference(results, other[::-1])

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# The shipped policy against the previous default on the held-out test episodes (all from the caches of
+# test_and_zero_shot.sh, nothing replayed): gap_closed difference with a paired interval (--compare).
+cd /work/train_code32
+export PYTHONPATH=/work/train_code32
+for k in office building lots; do
+  sc=""; st="--layouts 2000 2001 --starts 9"; set_="graph.features=extended"
+  [ $k != office ] && sc="--scene building" && st="--layouts 2000 2001 2002 2003 2004 --starts 4"
+  [ $k = lots ] && set_="$set_ scene.building.lot_probability=1"
+  /work/main/.venv/bin/python /work/main/benchmarks/study_learning.py \
+    --policy /work/main/policies/buildings_sparse_distill/actor.pt \
+    --compare /work/main/policies/buildings_lots_distill/actor.pt $sc $st --max-decisions 10 --set $set_ \
+    --out /work/runs/test33/$k
+done
