@@ -58,7 +58,8 @@ def main() -> None:
         result["reports"][folder.name] = {
             e["scene"]: {key: e[key] for key in ("travel_ratio", "travel_ratio_ci95", "error_ratio", "error_ratio_ci95",
                                                  "equal_travel_error_ratio", "speedup", "speedup_ci95",
-                                                 "travel_met", "error_met", "speed_met")} for e in entries}
+                                                 "travel_met", "error_met", "speed_met", "trials_to_resolve")}
+            for e in entries}
     emit(result)
 
 

@@ -97,6 +97,31 @@ def _bootstrap(statistic: Callable[[np.random.Generator], dict[str, float]], res
         return [statistic(rng) for _ in range(resamples)]
 
 
+def trials_to_resolve(ratio: float, interval: Sequence[float], trials: int, bound: float, upper: bool) -> float:
+    """How many trials (scenes, for a pool) would put the 95 % interval on the target's side of
+    ``bound`` (``upper``: below it) if the ratio held and the interval's half-width in log shrank
+    as ``1/sqrt(n)``: a planning figure, not a result. ``inf`` when the ratio itself is on the
+    wrong side (no number of trials shows it), ``nan`` without an interval."""
+    low, high = interval
+    if not (np.isfinite(low) and np.isfinite(high)):
+        return float("nan")
+    if (ratio >= bound) if upper else (ratio <= bound):
+        return float("inf")
+    half_width = math.log(high / ratio) if upper else math.log(ratio / low)
+    margin = math.log(bound / ratio) if upper else math.log(ratio / bound)
+    return float(math.ceil(trials * (half_width / margin) ** 2))
+
+
+def _trials_needed(entry: dict, targets: ZeroShotTargets, trials: int) -> dict:
+    return {"trials_to_resolve": {
+        "travel": trials_to_resolve(entry["travel_ratio"], entry["travel_ratio_ci95"], trials,
+                                    targets.max_travel_ratio, upper=True),
+        "error": trials_to_resolve(entry["error_ratio"], entry["error_ratio_ci95"], trials,
+                                   targets.max_error_ratio, upper=True),
+        "speed": trials_to_resolve(entry["speedup"], entry["speedup_ci95"], trials, targets.min_speedup,
+                                   upper=False)}}
+
+
 def _verdicts(entry: dict, targets: ZeroShotTargets) -> dict:
     """A target is met only when its whole 95 % interval is on the right side (never
     without an interval)."""
@@ -149,7 +174,7 @@ def scene_check(scene: str, coverage: float, points: Sequence[TrialPoint], refer
     else:
         draws = _bootstrap(resampled, resamples, seed)
         entry.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
-    return entry | _verdicts(entry, targets)
+    return entry | _verdicts(entry, targets) | _trials_needed(entry, targets, min(len(points), len(reference_points)))
 
 
 def pooled_check(entries: Sequence[dict], scenes: Sequence[tuple[list[TrialPoint], list[TrialPoint]]],
@@ -169,7 +194,7 @@ def pooled_check(entries: Sequence[dict], scenes: Sequence[tuple[list[TrialPoint
 
     draws = _bootstrap(resampled, resamples, seed)
     pooled.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
-    return pooled | _verdicts(pooled, targets)
+    return pooled | _verdicts(pooled, targets) | _trials_needed(pooled, targets, len(entries))
 
 
 def check_targets(runs: Sequence[dict], policy: str = "learned", reference: str = "em",
@@ -222,7 +247,21 @@ def targets_markdown(entries: Sequence[dict], targets: ZeroShotTargets = ZeroSho
         lines.append(f"| {e['scene']} | {coverage} | {travel} | {_ratio_cell(e, 'travel_ratio')} | {error} | "
                      f"{_ratio_cell(e, 'error_ratio')} | {equal} | {_ratio_cell(e, 'equal_travel_error_ratio')} | "
                      f"{_ratio_cell(e, 'speedup')} | {met} |")
+    resolvable = [e for e in entries if np.isfinite(e["travel_ratio_ci95"][0])]
+    if resolvable:
+        lines += ["", "Trials per policy (scenes, for a pool) that would put each interval within its target if "
+                  "the ratio held and the interval shrank as 1/sqrt(n) (a planning figure; never: the ratio "
+                  "itself misses the target):", "", "| scene | trials now | travel | map error | speedup |",
+                  "|---|---|---|---|---|"]
+        for e in resolvable:
+            now = e.get("scenes", min(e.get("trials", 0), e.get("reference_trials", 0)))
+            cells = [_trials_cell(e["trials_to_resolve"][key]) for key in ("travel", "error", "speed")]
+            lines.append(f"| {e['scene']} | {now} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _trials_cell(trials: float) -> str:
+    return "never" if trials == float("inf") else f"{trials:.0f}"
 
 
 def targets_json(entries: Sequence[dict], targets: ZeroShotTargets = ZeroShotTargets()) -> dict:

@@ -118,3 +118,25 @@ def test_two_scenes_with_many_trials_pool_with_their_trials_spread():
     low, high = pooled["travel_ratio_ci95"]
     assert low < 0.8 and high > 1.2 and not pooled["travel_met"]
     assert pooled["error_ratio_ci95"] == pytest.approx([1.0, 1.0])  # no spread anywhere: none in the pool
+
+
+def test_trials_to_resolve_by_hand():
+    resolve = zero_shot.trials_to_resolve
+    # log half-width ln 1.21 = 2 x the margin ln 1.1: four times the trials
+    assert resolve(1.0, [0.8, 1.21], 10, 1.1, upper=True) == 40
+    assert resolve(1.0, [0.95, 1.05], 10, 1.1, upper=True) <= 10  # met already: no more trials needed
+    assert resolve(1.12, [0.9, 1.4], 20, 1.1, upper=True) == float("inf")  # the ratio itself misses
+    # speed-up (a lower bound): ln(10 / 4) over ln(10 / 5), squared, x 10 = 17.5 -> 18
+    assert resolve(10.0, [4.0, 20.0], 10, 5.0, upper=False) == 18
+    assert resolve(2.4, [1.9, 3.0], 20, 5.0, upper=False) == float("inf")
+    assert np.isnan(resolve(1.0, [float("nan"), float("nan")], 1, 1.1, upper=True))
+
+
+def test_the_markdown_lists_the_trials_to_resolve_each_target():
+    runs = [run("learned", t, [travel], [0.85], [0.1]) for t, travel in enumerate([90.0, 110.0])]
+    runs += [run("em", t, [100.0], [0.85], [0.1], ms=100.0) for t in range(2)]
+    (entry,) = zero_shot.check_targets(runs, resamples=300)
+    assert entry["trials_to_resolve"]["speed"] <= 2  # 10x faster, no spread: met
+    assert entry["trials_to_resolve"]["error"] <= 2  # equal errors, no spread
+    text = zero_shot.targets_markdown([entry])
+    assert "| scene | trials now | travel | map error | speedup |" in text and "| street | 2 |" in text
