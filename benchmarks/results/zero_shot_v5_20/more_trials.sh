@@ -2,7 +2,7 @@
 # plan.md: ten more zero-shot trials of the shipped policy and EM (street and garage: seeds 10-19 on the
 # same scene, scene.seed=0; ten more held-out buildings 2010-2019), the same config as zero_shot_v5_10 and
 # zero_shot_buildings_v5; code frozen at the session-32 start commit. Meant to wait for the test script, but
-# the pattern below never matched (pgrep -f takes an extended regex: \\| is a literal bar), so it started at once,
+# the pattern below never matched (pgrep -f takes an extended regex, in which a backslash before the bar makes it a literal bar), so it started at once,
 # alongside it (09:38).
 set -e
 while pgrep -f "selection_v4/test_and_zero_shot.sh\|s33/test_and_zero_shot.sh" > /dev/null; do sleep 20; done
