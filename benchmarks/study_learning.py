@@ -42,6 +42,7 @@ from explore_rl.trainer.evaluate import (  # noqa: E402
     POLICIES,
     actor_training_config,
     EpisodeResult,
+    check_actor_features,
     check_held_out,
     episode_specs,
     gap_closed,
@@ -231,6 +232,8 @@ def main() -> None:
         trained_scene, trained = training_layouts(actor_training_config(args.policy))
         try:
             is_held_out = held_out(args, config.scene.name, layouts, trained_scene, trained, args.policy)
+            for actor in filter(None, (args.policy, args.compare)):
+                check_actor_features(config, actor)
         except ValueError as error:
             raise SystemExit(f"error: {error}") from None
         summary = evaluate_policy(config, Path(args.policy), layouts, args.starts, args.max_decisions, args.workers,

@@ -121,6 +121,17 @@ def greedy_actor(config: Config, actor_path: str | Path | None) -> Chooser:
     return choose
 
 
+def check_actor_features(config: Config, actor_path: str | Path | None) -> None:
+    """Refuse an actor that reads other node features than the episodes' graphs carry (it
+    would fail in its first decision, after the baselines had played)."""
+    from explore_rl.models.actor_file import read_actor_file, resolve
+
+    wanted = read_actor_file(resolve(actor_path)).feature_set
+    if wanted != config.graph.features:
+        raise ValueError(f"{actor_path or 'the shipped policy'} reads graph.features={wanted}, the episodes have "
+                         f"graph.features={config.graph.features}: set graph.features={wanted}")
+
+
 def baseline(name: str, seed: int = 0) -> Chooser:
     """nearest, em or random (seeded) as a chooser of encoded rows."""
     if name == "nearest":
@@ -238,6 +249,8 @@ def run_protocol(config: Config, specs: Sequence[EpisodeSpec], policies: Iterabl
             raise ValueError(f"unknown policy {policy!r}: choose one of {', '.join(POLICIES)}")
     if max_decisions < 1:
         raise ValueError(f"max_decisions must be >= 1, got {max_decisions}")
+    if "learned" in policies:
+        check_actor_features(config, actor_path)
     store, source = EpisodeCache(cache), source_digest()
     keys = {(policy, spec): episode_key(config, spec, policy_digest(policy, actor_path), max_decisions, source)
             for policy in policies for spec in specs}

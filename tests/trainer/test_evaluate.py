@@ -13,12 +13,14 @@ from explore_rl.envs.keys import EM_ACTION, NEAREST_ACTION
 from explore_rl.trainer.evaluate import (
     EpisodeResult,
     EpisodeSpec,
+    check_actor_features,
     check_held_out,
     episode_key,
     episode_specs,
     gap_closed,
     paired_bootstrap,
     play,
+    run_protocol,
     summarize,
     training_layouts,
 )
@@ -111,3 +113,14 @@ def test_the_cache_key_follows_what_changes_an_episode():
     assert episode_key(config, EpisodeSpec(1, 0, 98), "em", 5, "src") != key
     assert episode_key(config, spec, "em", 6, "src") != key
     assert episode_key(config, spec, "em", 5, "other source") != key
+
+
+def test_an_actor_of_other_features_is_refused_before_any_episode(tmp_path):
+    """The shipped actor reads the extended features: under graph.features=paper the protocol
+    fails at once, naming the fix, instead of in the learned policy's first decision."""
+    shipped = "policies/buildings_sparse_distill/actor.pt"
+    cache = tmp_path / "episodes.jsonl"
+    with pytest.raises(ValueError, match="set graph.features=extended"):
+        run_protocol(load_config(FAST), episode_specs([4], 1), ["em", "learned"], 1, actor_path=shipped, cache=cache)
+    assert not cache.exists()  # not even EM played
+    check_actor_features(load_config([*FAST, "graph.features=extended"]), shipped)  # the matching set passes
