@@ -62,6 +62,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--scene", default="office")
     parser.add_argument("--seed", type=int, default=0, help="weights and minibatch order")
     parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE", help="config overrides (model.*, algo.lr)")
+    parser.add_argument("--offline-only", action="store_true",
+                        help="the offline figures only, no protocol episodes (gap_closed left empty)")
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--smoke", action="store_true", help="a tiny dataset, 2 steps, 1 episode: that it runs")
     args = parser.parse_args(argv)
@@ -136,9 +138,11 @@ def train_and_evaluate(args, dataset, features: str, size: int, trainable, holdo
     offline_train = offline_gaps(learner, dataset, trainable[:size], columns)
     offline_holdout = offline_gaps(learner, dataset, holdout, columns)
     start = time.perf_counter()
-    results = run_protocol(config, episode_specs(args.layouts, args.starts), ("learned", "em", "random", "nearest"),
-                           args.max_decisions, actor_path=actor, workers=args.workers, cache=out / "episodes.jsonl")
-    summary = summarize(results)
+    summary = {"policies": {name: {"mean_reward": None, "em_agreement": None} for name in ("learned", "em", "random")}}
+    if not args.offline_only:
+        results = run_protocol(config, episode_specs(args.layouts, args.starts), ("learned", "em", "random", "nearest"),
+                               args.max_decisions, actor_path=actor, workers=args.workers, cache=out / "episodes.jsonl")
+        summary = summarize(results)
     row = {
         "features": features, "decisions": size, "steps": args.steps, "train_s": round(result.seconds, 1),
         "loss_first": round(float(np.mean(result.losses[:20])), 4) if result.losses else None,

@@ -62,6 +62,14 @@ def feature_scales(feature_set: str) -> list[float]:
     return [SCALES[name] for name in feature_names(feature_set)]
 
 
+def names_for(n_features: int) -> tuple[str, ...]:
+    """The columns of the feature set with ``n_features`` columns; ValueError if none has."""
+    for names in FEATURE_SETS.values():
+        if len(names) == n_features:
+            return names
+    raise ValueError(f"no feature set has {n_features} node features ({', '.join(FEATURE_SETS)})")
+
+
 def scales_for(n_features: int) -> list[float]:
     """The scales of the feature set with ``n_features`` columns (``model.feature_scale:
     null``); ValueError if no set has that many."""

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import torch
 from torch import Tensor, nn
 
-from explore_rl.graph.features import scales_for
+from explore_rl.graph.features import names_for, scales_for
 from explore_rl.models.config import ModelConfig
 from explore_rl.models.graph_unet import DenseGraphUNet, packed_rows
 
@@ -64,6 +64,26 @@ class FeatureScale(nn.Module):
         return x * self.scale
 
 
+class RelativeFeatures(nn.Module):
+    """``model.relative_features``: the named columns of ``x`` divided by their largest
+    magnitude over each graph's real nodes (padding excluded), ``[..., N, K]``."""
+
+    def __init__(self, config: ModelConfig, n_features: int):
+        super().__init__()
+        names = names_for(n_features)
+        missing = [name for name in config.relative_features if name not in names]
+        if missing:
+            raise ValueError(f"model.relative_features: {missing} are not among the node features "
+                             f"{list(names)}; name some of those (or set graph.features=extended)")
+        self.columns = [names.index(name) for name in config.relative_features]
+
+    def forward(self, x: Tensor, node_mask: Tensor) -> Tensor:
+        values = x[..., self.columns]
+        real = node_mask.bool().unsqueeze(-1)
+        largest = torch.where(real, values.abs(), torch.zeros_like(values)).amax(dim=-2, keepdim=True)
+        return torch.where(real, values / largest.clamp_min(1e-9), torch.zeros_like(values))
+
+
 def make_node_head(config: ModelConfig) -> nn.Sequential:
     """ReLU -> dropout -> MLP, one scalar per node. The U-Net's last GCN layer is linear;
     the ReLU before the head follows the authors' code. ``mlp_hidden=0``: one linear layer."""
@@ -85,12 +105,19 @@ class NodeScorer(nn.Module):
     def __init__(self, config: ModelConfig, n_features: int):
         super().__init__()
         self.scale = FeatureScale(config, n_features)
-        self.unet = make_unet(config, n_features)
+        self.relative = RelativeFeatures(config, n_features) if config.relative_features else None
+        self.unet = make_unet(config, n_features + len(config.relative_features))
         self.head = make_node_head(config)
+
+    def inputs(self, x: Tensor, node_mask: Tensor) -> Tensor:
+        """The g-U-Net's input: the scaled features, then the relative ones if configured."""
+        if self.relative is None:
+            return self.scale(x)
+        return torch.cat((self.scale(x), self.relative(x, node_mask)), dim=-1)
 
     def node_scores(self, x: Tensor, adj: Tensor, node_mask: Tensor, entries: Tensor | None = None) -> Tensor:
         """``entries``: ``adj.nonzero()`` if known (no scan of the adjacency: :meth:`DenseGraphUNet.forward`)."""
-        return node_scores(self.head, self.unet(self.scale(x), adj, node_mask, entries), node_mask)
+        return node_scores(self.head, self.unet(self.inputs(x, node_mask), adj, node_mask, entries), node_mask)
 
 
 class GraphActor(NodeScorer):

@@ -8,7 +8,7 @@ Paper (Sec. III-A): two g-U-Nets (actor, critic), depth 3, 1000 hidden features,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 # How the metre edge weights of the exploration graph enter the GCN (see graph_unet.py).
@@ -35,6 +35,11 @@ class ModelConfig:
     # identity]). None: the feature set's own scales (explore_rl/graph/features.py).
     # Part of the model: a checkpoint keeps them (deployment needs no extra step).
     feature_scale: Optional[list[float]] = None
+    # Node features also given relative to the graph: each named column divided by its largest
+    # magnitude over the graph's real nodes (e.g. [path_length]: 1 for the farthest frontier),
+    # appended to the input. Scale-free, so a large building's paths read like a small one's.
+    # Names from graph.features (explore_rl/graph/features.py); [] = none (the shipped policies).
+    relative_features: list[str] = field(default_factory=list)
 
     def validate(self) -> None:
         """Raise ValueError naming the first bad field (``model.<field>``) and what it must be."""
@@ -59,6 +64,9 @@ def _validate(config: ModelConfig) -> None:
     if config.feature_scale is not None and (not config.feature_scale
                                              or not all(v > 0 for v in config.feature_scale)):
         raise ValueError(f"model.feature_scale must be positive numbers, got {config.feature_scale!r}")
+    names = config.relative_features
+    if not all(isinstance(name, str) for name in names) or len(set(names)) != len(names):
+        raise ValueError(f"model.relative_features must be distinct node feature names, got {list(names)!r}")
     if not config.min_edge_length > 0.0:
         raise ValueError(f"model.min_edge_length must be positive, got {config.min_edge_length!r}")
 

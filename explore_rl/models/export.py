@@ -103,7 +103,7 @@ class ExportableActor(nn.Module):
         """Logits ``[N]`` of ``x[N, F]``, ``adj[N, N]`` (metres), ``node_mask[N]``; 0 on padding."""
         unet = self.actor.unet
         mask = node_mask.to(x.dtype)
-        x = self.actor.scale(x) * mask[:, None]
+        x = self.actor.inputs(x, node_mask) * mask[:, None]
         adj = without_diagonal(edge_weights(adj, unet.edge_weight, unet.min_edge_length)
                                * mask[:, None] * mask[None, :])
         norm = gcn_normalize(adj, mask)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 
+from explore_rl.models.actor_file import read_actor_file
 from tests.benchmarks.smoke import run_script
 
 
@@ -25,3 +26,12 @@ def test_study_data_smoke(tmp_path):
     assert (out / "data_curve.png").is_file() and json.loads((out / "summary.json").read_text())["decisions"] == total
     policies = {json.loads(line)["policy"] for line in (out / "episodes.jsonl").read_text().splitlines()}
     assert policies == {"learned", "em", "random", "nearest"}
+    # again on the same folder (the smoke dataset is resumed, not re-collected): offline figures only,
+    # with a relative feature in the model; no protocol episode is played
+    episodes = (out / "episodes.jsonl").read_text()
+    again = run_script("benchmarks/study_data.py", "--smoke", "--offline-only", "--out", str(out),
+                       "--set", "model.relative_features=[distance]", cwd=tmp_path, timeout=400)
+    assert again["decisions"] == total and all(row["gap_closed"] is None for row in again["rows"])
+    for row in again["rows"]:  # the saved actors carry the relative feature in their model config
+        assert read_actor_file(row["actor"]).model.relative_features == ["distance"]
+    assert (out / "episodes.jsonl").read_text() == episodes

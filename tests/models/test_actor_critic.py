@@ -11,7 +11,14 @@ import yaml
 from tensordict import TensorDict
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from explore_rl.models.actor_critic import Dropout, GraphActor, GraphCritic, make_actor, make_critic
+from explore_rl.models.actor_critic import (
+    Dropout,
+    GraphActor,
+    GraphCritic,
+    RelativeFeatures,
+    make_actor,
+    make_critic,
+)
 from explore_rl.models.config import ModelConfig
 from tests.models.graphs import N_FEATURES, pad, random_graphs
 
@@ -160,6 +167,7 @@ def test_a2c_style_loss_has_finite_gradients_everywhere():
     ("dropout", 1.0, "model.dropout"),
     ("edge_weight", "metres", "model.edge_weight must be one of distance, unit, inverse"),
     ("min_edge_length", 0.0, "model.min_edge_length"),
+    ("relative_features", ["distance", "distance"], "model.relative_features must be distinct"),
 ])
 def test_bad_config_names_the_field(field, value, message):
     config = dataclasses.replace(ModelConfig(), **{field: value})
@@ -183,3 +191,31 @@ def test_yaml_files_are_valid_model_configs():
     assert ModelConfig(**default) == ModelConfig()  # the dataclass defaults are model=gunet
     ModelConfig(**paper).validate()
     assert paper["hidden"] == 1000 and paper["depth"] == 3 and paper["dropout"] == 0.5
+
+
+def test_relative_features_divide_by_each_graphs_largest_real_value():
+    config = dataclasses.replace(SMALL, relative_features=["distance", "uncertainty"])
+    relative = RelativeFeatures(config, N_FEATURES)
+    batch = pad(random_graphs([5, 9], seed=3), 12)
+    x, mask = batch["x"], batch["node_mask"]
+    x[0, 5:] = 1e6  # padding must not count as the largest value
+    got = relative(x, mask)
+    assert got.shape == (2, 12, 2)
+    for g, n in enumerate((5, 9)):
+        for k, column in enumerate((1, 0)):  # distance, uncertainty in the paper's order
+            values = x[g, :n, column]
+            torch.testing.assert_close(got[g, :n, k], values / values.abs().max())
+        assert torch.all(got[g, n:] == 0)
+    scaled = x.clone()
+    scaled[..., 1] *= 7.0  # scale-free: metres or tens of metres read the same
+    torch.testing.assert_close(relative(scaled, mask), got)
+
+
+def test_relative_features_widen_the_input_and_unknown_names_fail():
+    actor = GraphActor(dataclasses.replace(SMALL, relative_features=["distance"]), N_FEATURES)
+    assert actor.unet.down_convs[0].lin.in_features == N_FEATURES + 1
+    batch = batch_td([4, 7], 8)
+    logits = actor(batch["x"], batch["adj"], batch["node_mask"])
+    assert logits.shape == (2, 8) and torch.isfinite(logits).all()
+    with pytest.raises(ValueError, match=r"model.relative_features: \['path_length'\] are not among"):
+        GraphActor(dataclasses.replace(SMALL, relative_features=["path_length"]), N_FEATURES)

@@ -50,7 +50,8 @@ def test_the_saved_program_keeps_the_training_padding(exported):
     assert exported.graph_max_nodes == 640 and exported.multiple == 8
 
 
-@pytest.mark.parametrize("options", [dict(sum_res=False), dict(edge_weight="inverse", mlp_hidden=0)])
+@pytest.mark.parametrize("options", [dict(sum_res=False), dict(edge_weight="inverse", mlp_hidden=0),
+                                     dict(relative_features=["distance", "uncertainty"])])
 def test_the_dense_single_graph_forward_matches_other_model_options(options):
     """What export traces (ExportableActor) equals the eager actor for other model options too."""
     torch.manual_seed(1)
