@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The shipped policy against the previous default on the held-out test episodes (all from the caches of
+# test_and_zero_shot.sh, nothing replayed): gap_closed difference with a paired interval (--compare).
 # (It ran with benchmarks/study_learning.py as of commit 30579c6; the script now imports main's
 # check_actor_features, which this frozen package lacks: rerun it from a checkout of that commit.)
-# test_and_zero_shot.sh, nothing replayed): gap_closed difference with a paired interval (--compare).
 cd /work/train_code32
 export PYTHONPATH=/work/train_code32
 for k in office building lots; do
