@@ -57,13 +57,17 @@ RESULTS = Path(__file__).resolve().parent / "results" / "learning"
 SCALARS = Path("logs") / "a2c" / "scalars"
 
 
+def play_policy(config: Config, actor_path: Path | None, layouts: list[int], starts: int, max_decisions: int,
+                workers: int, out: Path, policies: tuple[str, ...] = POLICIES) -> dict[str, list[EpisodeResult]]:
+    """The protocol for one policy file: every policy on the same episodes (cached in ``out``)."""
+    return run_protocol(config, episode_specs(layouts, starts), policies, max_decisions, actor_path=actor_path,
+                        workers=workers, cache=out / "episodes.jsonl")
+
+
 def evaluate_policy(config: Config, actor_path: Path | None, layouts: list[int], starts: int, max_decisions: int,
                     workers: int, out: Path, policies: tuple[str, ...] = POLICIES) -> dict:
-    """The protocol for one policy file: every policy on the same episodes; the summary."""
-    specs = episode_specs(layouts, starts)
-    results = run_protocol(config, specs, policies, max_decisions, actor_path=actor_path, workers=workers,
-                           cache=out / "episodes.jsonl")
-    return summarize(results)
+    """:func:`play_policy`'s summary."""
+    return summarize(play_policy(config, actor_path, layouts, starts, max_decisions, workers, out, policies))
 
 
 def policy_difference(results: dict[str, list[EpisodeResult]], other: list[EpisodeResult]) -> dict:
@@ -87,13 +91,9 @@ def policy_difference(results: dict[str, list[EpisodeResult]], other: list[Episo
 
 
 def compare_policy(config: Config, other: Path, layouts: list[int], starts: int, max_decisions: int, workers: int,
-                   out: Path, policy: Path) -> dict:
-    """``--compare``: the other actor on the same episodes (the cache has the baselines)."""
-    specs = episode_specs(layouts, starts)
-    cache = out / "episodes.jsonl"
-    mine = run_protocol(config, specs, ("learned", "em", "random"), max_decisions, actor_path=policy,
-                        workers=workers, cache=cache)
-    theirs = run_protocol(config, specs, ("learned",), max_decisions, actor_path=other, workers=workers, cache=cache)
+                   out: Path, mine: dict[str, list[EpisodeResult]]) -> dict:
+    """``--compare``: the other actor on the episodes of ``mine`` (the policy's protocol results)."""
+    theirs = play_policy(config, other, layouts, starts, max_decisions, workers, out, ("learned",))
     return {"policy": str(other), **policy_difference(mine, theirs["learned"])}
 
 
@@ -236,8 +236,8 @@ def main() -> None:
                 check_actor_features(config, actor)
         except ValueError as error:
             raise SystemExit(f"error: {error}") from None
-        summary = evaluate_policy(config, Path(args.policy), layouts, args.starts, args.max_decisions, args.workers,
-                                  out)
+        results = play_policy(config, Path(args.policy), layouts, args.starts, args.max_decisions, args.workers, out)
+        summary = summarize(results)
         print_summary(f"{args.policy} on {config.scene.name} ({'held out' if is_held_out else 'IN-SAMPLE'})", summary)
         if args.compare:
             other_scene, other_trained = training_layouts(actor_training_config(args.compare))
@@ -246,7 +246,7 @@ def main() -> None:
             except ValueError as error:
                 raise SystemExit(f"error: {error}") from None
             summary["compare"] = compare_policy(config, Path(args.compare), layouts, args.starts, args.max_decisions,
-                                                args.workers, out, Path(args.policy))
+                                                args.workers, out, results)
             figures = summary["compare"]
             print(f"  {args.compare}: gap_closed {figures['gap_closed']:+.3f}; difference {figures['difference']:+.3f} "
                   f"[{figures['difference_ci95'][0]:+.3f}, {figures['difference_ci95'][1]:+.3f}] (paired)")

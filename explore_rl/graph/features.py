@@ -73,10 +73,11 @@ def names_for(n_features: int) -> tuple[str, ...]:
 def scales_for(n_features: int) -> list[float]:
     """The scales of the feature set with ``n_features`` columns (``model.feature_scale:
     null``); ValueError if no set has that many."""
-    for names in FEATURE_SETS.values():
-        if len(names) == n_features:
-            return [SCALES[name] for name in names]
-    raise ValueError(f"no feature set has {n_features} node features: give model.feature_scale explicitly")
+    try:
+        names = names_for(n_features)
+    except ValueError:
+        raise ValueError(f"no feature set has {n_features} node features: give model.feature_scale explicitly") from None
+    return [SCALES[name] for name in names]
 
 
 def disc_fraction(mask: np.ndarray, cell: np.ndarray, radius_cells: int) -> float:
