@@ -8,8 +8,16 @@ whole interval is within it. New reports carry the same table in their ``summary
 script re-reads reports written before it existed. Writes ``targets.md`` and
 ``targets.json`` into the folder (or into ``--out``), prints one JSON line last.
 
+Candidates are often run alone, against one EM run of the same scenes and seeds (EM is
+seeded and deterministic on the same code): ``--reference`` takes EM's trials from those
+runs, one folder per report. ``--pool NAME`` also checks every report's scenes as one set
+(scenes named ``report/scene``: two sweeps over the same seeds with other scene options
+stay apart), written to ``NAME/`` under ``--out`` or beside the first report.
+
     python benchmarks/study_zero_shot.py benchmarks/results/zero_shot_v3_10 \
         benchmarks/results/zero_shot_buildings_v3
+    python benchmarks/study_zero_shot.py runs/buildings_wide runs/sparse_wide \
+        --reference runs/buildings_em runs/sparse_em --pool validation_wide
 """
 
 from __future__ import annotations
@@ -30,6 +38,11 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("reports", nargs="+", help="explore-rl-eval output folders")
     parser.add_argument("--out", default=None, help="write targets.{md,json} here (one sub-folder per report) "
                                                     "instead of into each report")
+    parser.add_argument("--reference", nargs="+", default=None, metavar="FOLDER",
+                        help="take the reference policy's (EM's) trials from these runs, one per report in order "
+                             "(the same scenes and seeds); default: each report's own")
+    parser.add_argument("--pool", default=None, metavar="NAME",
+                        help="also check all reports' scenes as one pooled set, written to NAME/")
     parser.add_argument("--resamples", type=int, default=zero_shot.RESAMPLES, help="bootstrap resamples")
     parser.add_argument("--smoke", action="store_true", help="for the test suite: 50 resamples")
     return parser.parse_args()
@@ -43,23 +56,60 @@ def read_report(folder: Path) -> list[dict]:
     return [run for path in paths for run in comparison.read_trials(path)]
 
 
+def with_reference(runs: list[dict], folder: Path, reference_folder: Path, policy: str = "learned",
+                   reference: str = "em") -> list[dict]:
+    """``runs`` (a report's trials) with the ``reference`` policy's trials of ``reference_folder``
+    added; every scene of the report must have them there and none in the report itself."""
+    if any(r["policy"] == reference for r in runs):
+        raise SystemExit(f"{folder}: it has {reference} trials of its own; drop --reference or pass a report "
+                         f"without {reference}")
+    theirs = [r for r in read_report(reference_folder) if r["policy"] == reference]
+    missing = sorted({r["scene"] for r in runs if r["policy"] == policy} - {r["scene"] for r in theirs})
+    if missing:
+        raise SystemExit(f"--reference {reference_folder}: no {reference} trial of scene(s) {', '.join(missing)} "
+                         f"of {folder}; pass the {reference} run of the same scenes")
+    return runs + theirs
+
+
+def pooled(reports: dict[str, list[dict]]) -> list[dict]:
+    """Every report's trials as one set, scenes renamed ``report/scene``."""
+    return [{**run, "scene": f"{name}/{run['scene']}"} for name, runs in reports.items() for run in runs]
+
+
+def check(name: str, runs: list[dict], out: Path, resamples: int) -> dict:
+    """The targets of one set of trials, written to ``out/targets.{md,json}``; the JSON summary."""
+    entries = zero_shot.check_targets(runs, resamples=resamples)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "targets.md").write_text(zero_shot.targets_markdown(entries))
+    (out / "targets.json").write_text(json.dumps(zero_shot.targets_json(entries), indent=1))
+    print(f"{name}:\n{zero_shot.targets_markdown(entries)}")
+    return {e["scene"]: {key: e[key] for key in ("travel_ratio", "travel_ratio_ci95", "error_ratio", "error_ratio_ci95",
+                                                 "equal_travel_error_ratio", "equal_travel_error_ratio_ci95",
+                                                 "speedup", "speedup_ci95", "travel_met", "error_met", "speed_met",
+                                                 "trials_to_resolve")}
+            for e in entries}
+
+
 def main() -> None:
     args = parse_args()
+    folders = [Path(name) for name in args.reports]
+    if args.reference is not None and len(args.reference) != len(folders):
+        raise SystemExit(f"--reference: {len(args.reference)} folder(s) for {len(folders)} report(s); "
+                         "pass one reference run per report, in the same order")
+    reports = {folder.name: read_report(folder) for folder in folders}
+    if len(reports) != len(folders):
+        raise SystemExit("reports: two folders share a name; pass folders with distinct names")
+    if args.reference is not None:
+        reports = {folder.name: with_reference(reports[folder.name], folder, Path(reference))
+                   for folder, reference in zip(folders, args.reference)}
     result = {"machine": machine(), "smoke": args.smoke, "reports": {}}
     resamples = 50 if args.smoke else args.resamples
-    for name in args.reports:
-        folder = Path(name)
-        entries = zero_shot.check_targets(read_report(folder), resamples=resamples)
+    for folder in folders:
         out = folder if args.out is None else Path(args.out) / folder.name
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "targets.md").write_text(zero_shot.targets_markdown(entries))
-        (out / "targets.json").write_text(json.dumps(zero_shot.targets_json(entries), indent=1))
-        print(zero_shot.targets_markdown(entries))
-        result["reports"][folder.name] = {
-            e["scene"]: {key: e[key] for key in ("travel_ratio", "travel_ratio_ci95", "error_ratio", "error_ratio_ci95",
-                                                 "equal_travel_error_ratio", "speedup", "speedup_ci95",
-                                                 "travel_met", "error_met", "speed_met", "trials_to_resolve")}
-            for e in entries}
+        result["reports"][folder.name] = check(folder.name, reports[folder.name], out, resamples)
+    if args.pool is not None:
+        out = (folders[0].parent if args.out is None else Path(args.out)) / args.pool
+        result["pool"] = check(args.pool, pooled(reports), out, resamples)
     emit(result)
 
 

@@ -1,0 +1,88 @@
+"""study_zero_shot.py's pairing of separate runs (``--reference``) and its pool over reports
+(``--pool``), on small synthetic reports whose ratios are known by construction."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.benchmarks.smoke import ROOT, run_script
+
+SCRIPT = "benchmarks/study_zero_shot.py"
+
+
+def trial(scene: str, policy: str, travel_per_step: float, error: float, ms: float) -> dict:
+    """A trial exploring 10 % per decision over 10 decisions, ``travel_per_step`` metres each,
+    with a constant map error ``error``."""
+    rows = [{"decision": i, "travel_m": travel_per_step * (i + 1), "explored": 0.1 * (i + 1), "map_error_m": error}
+            for i in range(10)]
+    return {"scene": scene, "policy": policy, "trial": 0, "seed": 0, "status": "explored", "rows": rows,
+            "ms_decide": ms}
+
+
+def write_report(folder: Path, scenes: dict[str, list[dict]]) -> Path:
+    """A sweep folder: one ``N_scene/trials.jsonl`` per scene."""
+    for i, (scene, runs) in enumerate(scenes.items()):
+        sub = folder / f"{i}_{scene}"
+        sub.mkdir(parents=True)
+        (sub / "trials.jsonl").write_text("".join(json.dumps(run) + "\n" for run in runs))
+    return folder
+
+
+@pytest.fixture()
+def runs(tmp_path: Path) -> dict[str, Path]:
+    """Two sweeps over the same scene names (as two scene options over the same seeds), each
+    with the learned policy alone and EM in a separate run: learned travels 1.2x (first) and
+    0.8x (second) EM's, its map error 1.5x and 1.0x, and decides 4x faster."""
+    folders = {}
+    for name, travel, error in (("first", 1.2, 1.5), ("second", 0.8, 1.0)):
+        folders[f"{name}_learned"] = write_report(tmp_path / f"{name}_learned", {
+            scene: [trial(scene, "learned", 10.0 * travel, 0.1 * error, 10.0)] for scene in ("b_1", "b_2")})
+        folders[f"{name}_em"] = write_report(tmp_path / f"{name}_em", {
+            scene: [trial(scene, "em", 10.0, 0.1, 40.0)] for scene in ("b_1", "b_2")})
+    return folders
+
+
+def test_reference_pairs_separate_runs_and_pool_keeps_same_named_scenes_apart(runs: dict[str, Path],
+                                                                              tmp_path: Path) -> None:
+    result = run_script(SCRIPT, str(runs["first_learned"]), str(runs["second_learned"]), "--reference",
+                        str(runs["first_em"]), str(runs["second_em"]), "--pool", "both", "--out",
+                        str(tmp_path / "targets"), "--smoke", cwd=tmp_path)
+    first = result["reports"]["first_learned"]["b_1"]
+    assert math.isclose(first["travel_ratio"], 1.2, rel_tol=1e-9)
+    assert math.isclose(first["error_ratio"], 1.5, rel_tol=1e-9)
+    assert math.isclose(first["speedup"], 4.0, rel_tol=1e-9)
+    assert math.isclose(result["reports"]["second_learned"]["b_2"]["travel_ratio"], 0.8, rel_tol=1e-9)
+    pool = result["pool"]
+    scenes = sorted(key for key in pool if not key.startswith("all "))
+    assert scenes == ["first_learned/b_1", "first_learned/b_2", "second_learned/b_1", "second_learned/b_2"]
+    assert math.isclose(pool["all 4 scenes"]["travel_ratio"], math.sqrt(1.2 * 0.8), rel_tol=1e-9)  # geometric mean
+    assert math.isclose(pool["all 4 scenes"]["error_ratio"], math.sqrt(1.5 * 1.0), rel_tol=1e-9)
+    assert (tmp_path / "targets/both/targets.md").is_file()
+    assert (tmp_path / "targets/first_learned/targets.json").is_file()
+
+
+def run_failing(*args: str, cwd: Path) -> str:
+    proc = subprocess.run([sys.executable, str(ROOT / SCRIPT), *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode != 0, proc.stdout
+    return proc.stderr.strip().splitlines()[-1]
+
+
+def test_reference_count_and_missing_scenes_fail_in_one_line(runs: dict[str, Path], tmp_path: Path) -> None:
+    message = run_failing(str(runs["first_learned"]), "--reference", str(runs["first_em"]), str(runs["second_em"]),
+                          cwd=tmp_path)
+    assert "--reference: 2 folder(s) for 1 report(s)" in message
+    partial = write_report(tmp_path / "partial_em", {"b_1": [trial("b_1", "em", 10.0, 0.1, 40.0)]})
+    message = run_failing(str(runs["first_learned"]), "--reference", str(partial), cwd=tmp_path)
+    assert "no em trial of scene(s) b_2" in message
+
+
+def test_reference_refuses_a_report_with_its_own_reference_trials(runs: dict[str, Path], tmp_path: Path) -> None:
+    message = run_failing(str(runs["first_em"]), "--reference", str(runs["second_em"]), cwd=tmp_path)
+    assert "has em trials of its own" in message
