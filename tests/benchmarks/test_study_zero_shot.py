@@ -67,6 +67,17 @@ def test_reference_pairs_separate_runs_and_pool_keeps_same_named_scenes_apart(ru
     assert (tmp_path / "targets/first_learned/targets.json").is_file()
 
 
+def test_reference_policy_learned_compares_two_candidates_directly(runs: dict[str, Path], tmp_path: Path) -> None:
+    """The first candidate against the second, scene by scene: travel 1.2 / 0.8, error 1.5 / 1.0."""
+    result = run_script(SCRIPT, str(runs["first_learned"]), "--reference", str(runs["second_learned"]),
+                        "--reference-policy", "learned", "--out", str(tmp_path / "direct"), "--smoke", cwd=tmp_path)
+    pooled = result["reports"]["first_learned"]["all 2 scenes"]
+    assert math.isclose(pooled["travel_ratio"], 1.5, rel_tol=1e-9)
+    assert math.isclose(pooled["error_ratio"], 1.5, rel_tol=1e-9)
+    assert math.isclose(pooled["speedup"], 1.0, rel_tol=1e-9)
+    assert "learned against learned_reference" in (tmp_path / "direct/first_learned/targets.md").read_text()
+
+
 def run_failing(*args: str, cwd: Path) -> str:
     proc = subprocess.run([sys.executable, str(ROOT / SCRIPT), *args], cwd=cwd, capture_output=True, text=True,
                           timeout=120)
@@ -81,6 +92,8 @@ def test_reference_count_and_missing_scenes_fail_in_one_line(runs: dict[str, Pat
     partial = write_report(tmp_path / "partial_em", {"b_1": [trial("b_1", "em", 10.0, 0.1, 40.0)]})
     message = run_failing(str(runs["first_learned"]), "--reference", str(partial), cwd=tmp_path)
     assert "no em trial of scene(s) b_2" in message
+    message = run_failing(str(runs["first_learned"]), "--reference-policy", "learned", cwd=tmp_path)
+    assert "pass --reference FOLDER" in message
 
 
 def test_reference_refuses_a_report_with_its_own_reference_trials(runs: dict[str, Path], tmp_path: Path) -> None:
