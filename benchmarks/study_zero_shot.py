@@ -14,7 +14,8 @@ runs, one folder per report. ``--pool NAME`` also checks every report's scenes a
 (scenes named ``report/scene``: two sweeps over the same seeds with other scene options
 stay apart), written to ``NAME/`` under ``--out`` or beside the first report. With
 ``--reference-policy learned`` the reference runs are another learned policy's (named
-``learned_reference`` in the tables): two candidates compared directly, scene by scene.
+``learned_reference`` in the tables): two candidates compared directly, scene by scene;
+``--policy em --reference-policy em`` compares two EM runs of other seeds (the noise floor).
 
     python benchmarks/study_zero_shot.py benchmarks/results/zero_shot_v3_10 \
         benchmarks/results/zero_shot_buildings_v3
@@ -43,6 +44,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--reference", nargs="+", default=None, metavar="FOLDER",
                         help="take the reference policy's (EM's) trials from these runs, one per report in order "
                              "(the same scenes and seeds); default: each report's own")
+    parser.add_argument("--policy", default="learned", metavar="NAME",
+                        help="the policy checked (default learned)")
     parser.add_argument("--reference-policy", default="em", metavar="NAME",
                         help="the policy of the --reference runs to compare with (default em; learned: another "
                              "candidate's runs, a direct comparison)")
@@ -61,25 +64,22 @@ def read_report(folder: Path) -> list[dict]:
     return [run for path in paths for run in comparison.read_trials(path)]
 
 
-POLICY = "learned"
-
-
-def reference_label(reference_policy: str) -> str:
-    """The reference's name in the tables: its own, or ``learned_reference`` when it is
+def reference_label(reference_policy: str, policy: str = "learned") -> str:
+    """The reference's name in the tables: its own, or ``<policy>_reference`` when it is
     another run of the checked policy."""
-    return f"{POLICY}_reference" if reference_policy == POLICY else reference_policy
+    return f"{policy}_reference" if reference_policy == policy else reference_policy
 
 
-def with_reference(runs: list[dict], folder: Path, reference_folder: Path, reference_policy: str = "em"
-                   ) -> list[dict]:
+def with_reference(runs: list[dict], folder: Path, reference_folder: Path, reference_policy: str = "em",
+                   policy: str = "learned") -> list[dict]:
     """``runs`` (a report's trials) with the ``reference_policy``'s trials of ``reference_folder``
     added (under :func:`reference_label`); every scene of the report must have them there."""
-    label = reference_label(reference_policy)
+    label = reference_label(reference_policy, policy)
     if any(r["policy"] == label for r in runs):
         raise SystemExit(f"{folder}: it has {label} trials of its own; drop --reference or pass a report "
                          f"without {label}")
     theirs = [{**r, "policy": label} for r in read_report(reference_folder) if r["policy"] == reference_policy]
-    missing = sorted({r["scene"] for r in runs if r["policy"] == POLICY} - {r["scene"] for r in theirs})
+    missing = sorted({r["scene"] for r in runs if r["policy"] == policy} - {r["scene"] for r in theirs})
     if missing:
         raise SystemExit(f"--reference {reference_folder}: no {reference_policy} trial of scene(s) "
                          f"{', '.join(missing)} of {folder}; pass the {reference_policy} run of the same scenes")
@@ -91,10 +91,11 @@ def pooled(reports: dict[str, list[dict]]) -> list[dict]:
     return [{**run, "scene": f"{name}/{run['scene']}"} for name, runs in reports.items() for run in runs]
 
 
-def check(name: str, runs: list[dict], out: Path, resamples: int, reference: str = "em") -> dict:
-    """The targets of one set of trials against ``reference``, written to ``out/targets.{md,json}``;
-    the JSON summary."""
-    entries = zero_shot.check_targets(runs, policy=POLICY, reference=reference, resamples=resamples)
+def check(name: str, runs: list[dict], out: Path, resamples: int, policy: str = "learned", reference: str = "em"
+          ) -> dict:
+    """The targets of one set of trials, ``policy`` against ``reference``, written to
+    ``out/targets.{md,json}``; the JSON summary."""
+    entries = zero_shot.check_targets(runs, policy=policy, reference=reference, resamples=resamples)
     out.mkdir(parents=True, exist_ok=True)
     (out / "targets.md").write_text(zero_shot.targets_markdown(entries))
     (out / "targets.json").write_text(json.dumps(zero_shot.targets_json(entries), indent=1))
@@ -115,21 +116,25 @@ def main() -> None:
     if args.reference is None and args.reference_policy != "em":
         raise SystemExit(f"--reference-policy {args.reference_policy}: it names the policy of the --reference "
                          "runs; pass --reference FOLDER ... too")
+    if args.reference is None and args.reference_policy == args.policy:
+        raise SystemExit(f"--policy {args.policy}: the same as the reference policy; pass --reference FOLDER ... "
+                         "(another run of it) to compare it with itself")
     reports = {folder.name: read_report(folder) for folder in folders}
     if len(reports) != len(folders):
         raise SystemExit("reports: two folders share a name; pass folders with distinct names")
     if args.reference is not None:
-        reports = {folder.name: with_reference(reports[folder.name], folder, Path(reference), args.reference_policy)
+        reports = {folder.name: with_reference(reports[folder.name], folder, Path(reference), args.reference_policy,
+                                                args.policy)
                    for folder, reference in zip(folders, args.reference)}
-    reference = reference_label(args.reference_policy) if args.reference is not None else "em"
+    reference = reference_label(args.reference_policy, args.policy) if args.reference is not None else "em"
     result = {"machine": machine(), "smoke": args.smoke, "reports": {}}
     resamples = 50 if args.smoke else args.resamples
     for folder in folders:
         out = folder if args.out is None else Path(args.out) / folder.name
-        result["reports"][folder.name] = check(folder.name, reports[folder.name], out, resamples, reference)
+        result["reports"][folder.name] = check(folder.name, reports[folder.name], out, resamples, args.policy, reference)
     if args.pool is not None:
         out = (folders[0].parent if args.out is None else Path(args.out)) / args.pool
-        result["pool"] = check(args.pool, pooled(reports), out, resamples, reference)
+        result["pool"] = check(args.pool, pooled(reports), out, resamples, args.policy, reference)
     emit(result)
 
 

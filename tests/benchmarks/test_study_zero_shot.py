@@ -78,6 +78,15 @@ def test_reference_policy_learned_compares_two_candidates_directly(runs: dict[st
     assert "learned against learned_reference" in (tmp_path / "direct/first_learned/targets.md").read_text()
 
 
+def test_policy_em_against_another_em_run(runs: dict[str, Path], tmp_path: Path) -> None:
+    """EM against another EM run of the same scenes (the noise floor): identical runs give 1."""
+    result = run_script(SCRIPT, str(runs["first_em"]), "--reference", str(runs["second_em"]), "--policy", "em",
+                        "--reference-policy", "em", "--out", str(tmp_path / "floor"), "--smoke", cwd=tmp_path)
+    pooled = result["reports"]["first_em"]["all 2 scenes"]
+    assert all(math.isclose(pooled[key], 1.0, rel_tol=1e-9) for key in ("travel_ratio", "error_ratio", "speedup"))
+    assert "em against em_reference" in (tmp_path / "floor/first_em/targets.md").read_text()
+
+
 def run_failing(*args: str, cwd: Path) -> str:
     proc = subprocess.run([sys.executable, str(ROOT / SCRIPT), *args], cwd=cwd, capture_output=True, text=True,
                           timeout=120)
@@ -93,6 +102,8 @@ def test_reference_count_and_missing_scenes_fail_in_one_line(runs: dict[str, Pat
     message = run_failing(str(runs["first_learned"]), "--reference", str(partial), cwd=tmp_path)
     assert "no em trial of scene(s) b_2" in message
     message = run_failing(str(runs["first_learned"]), "--reference-policy", "learned", cwd=tmp_path)
+    assert "pass --reference FOLDER" in message
+    message = run_failing(str(runs["first_em"]), "--policy", "em", "--reference-policy", "em", cwd=tmp_path)
     assert "pass --reference FOLDER" in message
 
 
