@@ -134,7 +134,8 @@ def main() -> None:
         result["reports"][folder.name] = check(folder.name, reports[folder.name], out, resamples, args.policy, reference)
     if args.pool is not None:
         out = (folders[0].parent if args.out is None else Path(args.out)) / args.pool
-        result["pool"] = check(args.pool, pooled(reports), out, resamples, args.policy, reference)
+        pool = check(args.pool, pooled(reports), out, resamples, args.policy, reference)
+        result["pool"] = {scene: entry for scene, entry in pool.items() if scene.startswith("all ")}  # the rest: above
     emit(result)
 
 

@@ -59,7 +59,9 @@ def test_reference_pairs_separate_runs_and_pool_keeps_same_named_scenes_apart(ru
     assert math.isclose(first["speedup"], 4.0, rel_tol=1e-9)
     assert math.isclose(result["reports"]["second_learned"]["b_2"]["travel_ratio"], 0.8, rel_tol=1e-9)
     pool = result["pool"]
-    scenes = sorted(key for key in pool if not key.startswith("all "))
+    assert list(pool) == ["all 4 scenes"]  # its scenes are the reports' above
+    entries = json.loads((tmp_path / "targets/both/targets.json").read_text())["entries"]
+    scenes = sorted(e["scene"] for e in entries if not e["scene"].startswith("all "))
     assert scenes == ["first_learned/b_1", "first_learned/b_2", "second_learned/b_1", "second_learned/b_2"]
     assert math.isclose(pool["all 4 scenes"]["travel_ratio"], math.sqrt(1.2 * 0.8), rel_tol=1e-9)  # geometric mean
     assert math.isclose(pool["all 4 scenes"]["error_ratio"], math.sqrt(1.5 * 1.0), rel_tol=1e-9)
