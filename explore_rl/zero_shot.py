@@ -14,14 +14,15 @@ is taken at the same coverage:
   there; the reference's map error also **at the policy's mean travel** (equal travel: the
   comparison of "lower map error at the same distance");
 * ratios of means over trials, with 95 % percentile intervals from resampling each
-  policy's trials independently (the trials of two policies are separate explorations).
+  policy's trials independently (the trials of two policies are separate explorations),
+  expanded for few trials (:mod:`explore_rl.intervals`; the smaller group's count).
   A target is met only when the whole interval is on the right side of it.
 
 Several scenes are also pooled: the geometric mean of the per-scene ratios, the interval
 from a two-stage resampling -- scenes, then each drawn scene's trials (a sweep over generated
 buildings with one trial each resamples scenes only; two named scenes with ten trials each
 keep both their trials' spread and the spread between them, so two similar scene ratios do
-not make a narrow interval).
+not make a narrow interval), its percentiles expanded for the number of scenes.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from explore_rl.comparison import travel_to_reach, value_at_travel
+from explore_rl.intervals import percentile_levels
 
 RESAMPLES = 2000
 
@@ -82,12 +84,13 @@ def _ratios(policy: Sequence[TrialPoint], reference: Sequence[TrialPoint]) -> di
             "speedup": float(np.mean([p.ms_decide for p in reference])) / float(np.mean([p.ms_decide for p in policy]))}
 
 
-def _interval(draws: Sequence[dict[str, float]], key: str) -> list[float]:
+def _interval(draws: Sequence[dict[str, float]], key: str, units: int) -> list[float]:
+    """The 95 % interval of ``key`` over the bootstrap ``draws`` of ``units`` independent units."""
     values = np.array([d[key] for d in draws], dtype=float)
     values = values[np.isfinite(values)]
     if len(values) == 0:
         return [float("nan"), float("nan")]
-    return [float(v) for v in np.percentile(values, [2.5, 97.5])]
+    return [float(v) for v in np.percentile(values, percentile_levels(units))]
 
 
 def _bootstrap(statistic: Callable[[np.random.Generator], dict[str, float]], resamples: int, seed: int
@@ -173,7 +176,8 @@ def scene_check(scene: str, coverage: float, points: Sequence[TrialPoint], refer
         entry.update({f"{key}_ci95": [float("nan"), float("nan")] for key in KEYS})
     else:
         draws = _bootstrap(resampled, resamples, seed)
-        entry.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
+        units = min(len(points), len(reference_points))
+        entry.update({f"{key}_ci95": _interval(draws, key, units) for key in KEYS})
     return entry | _verdicts(entry, targets) | _trials_needed(entry, targets, min(len(points), len(reference_points)))
 
 
@@ -193,7 +197,7 @@ def pooled_check(entries: Sequence[dict], scenes: Sequence[tuple[list[TrialPoint
         return {key: float(np.exp(np.mean(np.log([d[key] for d in drawn])))) for key in KEYS}
 
     draws = _bootstrap(resampled, resamples, seed)
-    pooled.update({f"{key}_ci95": _interval(draws, key) for key in KEYS})
+    pooled.update({f"{key}_ci95": _interval(draws, key, len(scenes)) for key in KEYS})
     return pooled | _verdicts(pooled, targets) | _trials_needed(pooled, targets, len(entries))
 
 

@@ -40,6 +40,7 @@ import numpy as np
 
 from explore_rl.config import Config
 from explore_rl.envs.keys import EM_ACTION, NEAREST_ACTION
+from explore_rl.intervals import percentile_levels
 
 log = logging.getLogger(__name__)
 
@@ -273,8 +274,11 @@ def run_protocol(config: Config, specs: Sequence[EpisodeSpec], policies: Iterabl
 def paired_bootstrap(values: dict[str, np.ndarray], statistic: Callable[[dict[str, np.ndarray]], float],
                      resamples: int = BOOTSTRAP_RESAMPLES, seed: int = 0) -> tuple[float, float]:
     """95 % percentile interval of ``statistic`` over resamples of the episodes, the same
-    resampled indices for every policy (the episodes are shared)."""
+    resampled indices for every policy (the episodes are shared), expanded for few episodes
+    (:mod:`explore_rl.intervals`); NaN without two episodes."""
     n = len(next(iter(values.values())))
+    if n < 2:  # one episode has no spread
+        return float("nan"), float("nan")
     rng = np.random.default_rng(seed)
     draws = []
     for _ in range(resamples):
@@ -284,7 +288,7 @@ def paired_bootstrap(values: dict[str, np.ndarray], statistic: Callable[[dict[st
     draws = draws[np.isfinite(draws)]
     if len(draws) == 0:
         return float("nan"), float("nan")
-    low, high = np.percentile(draws, [2.5, 97.5])
+    low, high = np.percentile(draws, percentile_levels(n))
     return float(low), float(high)
 
 

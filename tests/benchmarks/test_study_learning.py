@@ -17,7 +17,7 @@ def test_study_learning_smoke(tmp_path):
     assert result["smoke"] is True and result["held_out"] is True and result["layouts"] == [1000]
     assert set(result["policies"]) == {"learned", "em", "nearest", "random"}
     em, nearest = result["policies"]["em"], result["policies"]["nearest"]
-    assert em["ci95"][0] <= em["mean_reward"] <= em["ci95"][1]
+    assert np.isnan(em["ci95"]).all()  # one episode per policy has no spread: no interval (unit tests cover it)
     assert nearest["mean_reward"] <= 0.0 <= em["mean_reward"]  # Algorithm 1's ranges
     assert "gap_closed" in result and set(result["per_layout"]) == {"1000"}
     run = result["runs"]["smoke_run"]["last"]
