@@ -172,13 +172,13 @@ def scene_check(scene: str, coverage: float, points: Sequence[TrialPoint], refer
     def resampled(rng: np.random.Generator) -> dict[str, float]:
         return _ratios(_resample(points, rng), _resample(reference_points, rng))
 
-    if min(len(points), len(reference_points)) < 2:  # one trial has no spread: no interval, no verdict
+    units = min(len(points), len(reference_points))  # the smaller group's trials
+    if units < 2:  # one trial has no spread: no interval, no verdict
         entry.update({f"{key}_ci95": [float("nan"), float("nan")] for key in KEYS})
     else:
         draws = _bootstrap(resampled, resamples, seed)
-        units = min(len(points), len(reference_points))
         entry.update({f"{key}_ci95": _interval(draws, key, units) for key in KEYS})
-    return entry | _verdicts(entry, targets) | _trials_needed(entry, targets, min(len(points), len(reference_points)))
+    return entry | _verdicts(entry, targets) | _trials_needed(entry, targets, units)
 
 
 def pooled_check(entries: Sequence[dict], scenes: Sequence[tuple[list[TrialPoint], list[TrialPoint]]],
