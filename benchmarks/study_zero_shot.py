@@ -56,11 +56,13 @@ def parse_args() -> argparse.Namespace:
     return parser.parse_args()
 
 
-def read_report(folder: Path) -> list[dict]:
-    """Every trial of a report: its own ``trials.jsonl`` or its sub-folders' (a sweep)."""
+def read_report(folder: Path, argument: str = "") -> list[dict]:
+    """Every trial of a report: its own ``trials.jsonl`` or its sub-folders' (a sweep);
+    ``argument`` names the flag it came from in the error."""
     paths = [folder / "trials.jsonl"] if (folder / "trials.jsonl").exists() else sorted(folder.glob("*/trials.jsonl"))
     if not paths:
-        raise SystemExit(f"{folder}: no trials.jsonl in it or its sub-folders; pass an explore-rl-eval output folder")
+        raise SystemExit(f"{argument}{folder}: no trials.jsonl in it or its sub-folders; pass an explore-rl-eval "
+                         "output folder")
     return [run for path in paths for run in comparison.read_trials(path)]
 
 
@@ -78,7 +80,8 @@ def with_reference(runs: list[dict], folder: Path, reference_folder: Path, refer
     if any(r["policy"] == label for r in runs):
         raise SystemExit(f"{folder}: it has {label} trials of its own; drop --reference or pass a report "
                          f"without {label}")
-    theirs = [{**r, "policy": label} for r in read_report(reference_folder) if r["policy"] == reference_policy]
+    theirs = [{**r, "policy": label} for r in read_report(reference_folder, "--reference ")
+              if r["policy"] == reference_policy]
     missing = sorted({r["scene"] for r in runs if r["policy"] == policy} - {r["scene"] for r in theirs})
     if missing:
         raise SystemExit(f"--reference {reference_folder}: no {reference_policy} trial of scene(s) "

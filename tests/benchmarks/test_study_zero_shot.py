@@ -103,6 +103,8 @@ def test_reference_count_and_missing_scenes_fail_in_one_line(runs: dict[str, Pat
     partial = write_report(tmp_path / "partial_em", {"b_1": [trial("b_1", "em", 10.0, 0.1, 40.0)]})
     message = run_failing(str(runs["first_learned"]), "--reference", str(partial), cwd=tmp_path)
     assert "no em trial of scene(s) b_2" in message
+    message = run_failing(str(runs["first_learned"]), "--reference", str(tmp_path / "nope"), cwd=tmp_path)
+    assert message.startswith("--reference ") and "no trials.jsonl" in message
     message = run_failing(str(runs["first_learned"]), "--reference-policy", "learned", cwd=tmp_path)
     assert "pass --reference FOLDER" in message
     message = run_failing(str(runs["first_em"]), "--policy", "em", "--reference-policy", "em", cwd=tmp_path)
