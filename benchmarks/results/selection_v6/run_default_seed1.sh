@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# plan.md's noise floor: the default again on the same 20 validation scenes with another trial seed (seed=1), the
-# same config as run.sh otherwise; paired with EM seed 1 (run_em_seed1.sh): two trials per scene for both by study_zero_shot.py.
+# plan.md: the default again on the same 20 validation scenes with another trial seed (seed=1), the same config
+# as run.sh otherwise: with run_em_seed1.sh, two trials per scene for the default and EM.
 set -e
 cd /work/train_code34
 export PYTHONPATH=/work/train_code34
