@@ -105,6 +105,7 @@ def check(name: str, runs: list[dict], out: Path, resamples: int, policy: str = 
     print(f"{name}:\n{zero_shot.targets_markdown(entries)}")
     return {e["scene"]: {key: e[key] for key in ("travel_ratio", "travel_ratio_ci95", "error_ratio", "error_ratio_ci95",
                                                  "equal_travel_error_ratio", "equal_travel_error_ratio_ci95",
+                                                 "closures_ratio", "closures_ratio_ci95",
                                                  "speedup", "speedup_ci95", "travel_met", "error_met", "speed_met",
                                                  "trials_to_resolve")}
             for e in entries}

@@ -13,6 +13,10 @@ is taken at the same coverage:
 * per trial, the travel to reach it (:func:`comparison.travel_to_reach`) and the map error
   there; the reference's map error also **at the policy's mean travel** (equal travel: the
   comparison of "lower map error at the same distance");
+* a behaviour figure beside them: loop closures (plus one, so a run without any still has a
+  ratio) per metre up to the common coverage, as a ratio of means -- the learned policies' map
+  error is not told apart from EM's by ~20 explorations, their fewer closures per metre are
+  (benchmarks/RESULTS.md, session 34); NaN for reports whose rows lack ``loop_closures``;
 * ratios of means over trials, with 95 % percentile intervals from resampling each
   policy's trials independently (the trials of two policies are separate explorations),
   expanded for few trials (:mod:`explore_rl.intervals`; the smaller group's count).
@@ -53,12 +57,14 @@ class ZeroShotTargets:
 @dataclass(frozen=True)
 class TrialPoint:
     """One trial at the common coverage: the travel to reach it, the map error there, the
-    mean decision time, and the trial's (travel, map error) rows for equal-travel reads."""
+    mean decision time, (loop closures + 1) per metre up to there, and the trial's (travel,
+    map error) rows for equal-travel reads."""
 
     travel_m: float
     map_error_m: float
     ms_decide: float
     run: dict
+    closures_per_m: float = float("nan")
 
 
 def common_coverage(runs: Sequence[dict], target: float) -> float:
@@ -70,7 +76,9 @@ def common_coverage(runs: Sequence[dict], target: float) -> float:
 
 def trial_point(run: dict, coverage: float) -> TrialPoint:
     travel = travel_to_reach(run, coverage)
-    return TrialPoint(travel, value_at_travel(run, "map_error_m", travel), float(run["ms_decide"]), run)
+    closures = value_at_travel(run, "loop_closures", travel) if "loop_closures" in run["rows"][0] else float("nan")
+    return TrialPoint(travel, value_at_travel(run, "map_error_m", travel), float(run["ms_decide"]), run,
+                      (closures + 1.0) / max(travel, 1e-9))
 
 
 def _ratios(policy: Sequence[TrialPoint], reference: Sequence[TrialPoint]) -> dict[str, float]:
@@ -81,6 +89,8 @@ def _ratios(policy: Sequence[TrialPoint], reference: Sequence[TrialPoint]) -> di
     return {"travel_ratio": travel / float(np.mean([p.travel_m for p in reference])),
             "error_ratio": error / float(np.mean([p.map_error_m for p in reference])),
             "equal_travel_error_ratio": error / reference_at_travel,
+            "closures_ratio": float(np.mean([p.closures_per_m for p in policy]))
+            / float(np.mean([p.closures_per_m for p in reference])),
             "speedup": float(np.mean([p.ms_decide for p in reference])) / float(np.mean([p.ms_decide for p in policy]))}
 
 
@@ -133,7 +143,7 @@ def _verdicts(entry: dict, targets: ZeroShotTargets) -> dict:
             "speed_met": bool(entry["speedup_ci95"][0] >= targets.min_speedup)}
 
 
-KEYS = ("travel_ratio", "error_ratio", "equal_travel_error_ratio", "speedup")
+KEYS = ("travel_ratio", "error_ratio", "equal_travel_error_ratio", "closures_ratio", "speedup")
 
 
 def _scene_points(runs: Sequence[dict], policy: str, reference: str, targets: ZeroShotTargets
@@ -219,6 +229,8 @@ def check_targets(runs: Sequence[dict], policy: str = "learned", reference: str 
 
 
 def _ratio_cell(entry: dict, key: str) -> str:
+    if not np.isfinite(entry[key]):
+        return "n/a"  # e.g. loop closures of a report that did not record them
     low, high = entry[f"{key}_ci95"]
     interval = f" [{low:.2f}, {high:.2f}]" if np.isfinite(low) else " (one trial: no interval)"
     return f"{entry[key]:.2f}{interval}"
@@ -234,8 +246,9 @@ def targets_markdown(entries: Sequence[dict], targets: ZeroShotTargets = ZeroSho
              f"map error <= {targets.max_error_ratio}x, decisions >= {targets.min_speedup}x faster):", "",
              f"| scene | coverage % | travel m ({first['policy']} / {first['reference']}) | travel ratio | "
              f"map error m ({first['policy']} / {first['reference']}) | map error ratio | "
-             f"{first['reference']} error at equal travel m | equal-travel error ratio | speedup | met |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             f"{first['reference']} error at equal travel m | equal-travel error ratio | "
+             f"loop closures per m ratio | speedup | met |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for e in entries:
         met = ", ".join(name for name, key in (("travel", "travel_met"), ("error", "error_met"),
                                                ("speed", "speed_met")) if e[key]) or "none"
@@ -250,7 +263,7 @@ def targets_markdown(entries: Sequence[dict], targets: ZeroShotTargets = ZeroSho
             coverage, travel, error, equal = "per scene", "", "", ""
         lines.append(f"| {e['scene']} | {coverage} | {travel} | {_ratio_cell(e, 'travel_ratio')} | {error} | "
                      f"{_ratio_cell(e, 'error_ratio')} | {equal} | {_ratio_cell(e, 'equal_travel_error_ratio')} | "
-                     f"{_ratio_cell(e, 'speedup')} | {met} |")
+                     f"{_ratio_cell(e, 'closures_ratio')} | {_ratio_cell(e, 'speedup')} | {met} |")
     resolvable = [e for e in entries if np.isfinite(e["travel_ratio_ci95"][0])]
     if resolvable:
         lines += ["", "Trials per policy (scenes, for a pool) that would put each interval within its target if "

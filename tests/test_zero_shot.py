@@ -47,13 +47,30 @@ def test_ratios_at_the_common_coverage_and_at_equal_travel_by_hand():
     assert entry["reference_map_error_at_equal_travel_m"] == pytest.approx((0.055 + 0.15) / 2)
     assert entry["equal_travel_error_ratio"] == pytest.approx(0.3 / 0.1025)
     assert entry["speedup"] == pytest.approx(200.0 / 10.0)
-    for key in zero_shot.KEYS:  # each interval holds its point estimate here (two trials each)
+    assert np.isnan(entry["closures_ratio"])  # these rows have no loop_closures: no ratio, "n/a" in the table
+    for key in set(zero_shot.KEYS) - {"closures_ratio"}:  # each interval holds its point estimate (two trials each)
         low, high = entry[f"{key}_ci95"]
         assert low <= entry[key] + 1e-12 and entry[key] <= high + 1e-12
     assert entry["travel_met"] and not entry["error_met"] and entry["speed_met"]
     text = zero_shot.targets_markdown([entry])
-    assert "| street | 80 (below stop) | 110.0 / 225.0 |" in text and "travel, speed |" in text
+    assert "| street | 80 (below stop) | 110.0 / 225.0 |" in text and "| n/a | 20.00" in text
+    assert "travel, speed |" in text
     json.dumps(zero_shot.targets_json([entry]))
+
+
+def test_loop_closures_per_metre_ratio_at_the_common_coverage_by_hand():
+    """(closures + 1) per metre up to the coverage both reach (80 %): learned 2 closures in 100 m,
+    EM 9 in 200 m and 0 in 100 m -> (3/100) / mean(10/200, 1/100) = 0.03 / 0.03 = 1."""
+    def with_closures(trial: dict, closures: list[int]) -> dict:
+        for row, count in zip(trial["rows"], closures):
+            row["loop_closures"] = count
+        return trial
+
+    runs = [with_closures(run("learned", 0, [50.0, 100.0], [0.4, 0.8], [0.1, 0.2]), [0, 2]),
+            with_closures(run("em", 0, [100.0, 200.0], [0.4, 0.8], [0.1, 0.1]), [3, 9]),
+            with_closures(run("em", 1, [50.0, 100.0], [0.4, 0.8], [0.1, 0.1]), [0, 0])]
+    (entry,) = zero_shot.check_targets(runs, resamples=50)
+    assert entry["closures_ratio"] == pytest.approx((3 / 100) / ((10 / 200 + 1 / 100) / 2))
 
 
 def test_a_target_is_met_only_when_the_whole_interval_is_within_it():
