@@ -15,5 +15,5 @@ nice -n 5 /work/main/.venv/bin/explore-rl-train scene=building slam=model graph.
 cd /work/main/benchmarks/results/selection_v6
 ./run.sh learned em_choice /work/runs/em_choice/checkpoints/last.pt > em_choice_whole.log 2>&1
 R=/work/runs/val_whole
-/work/main/.venv/bin/python /work/main/benchmarks/study_zero_shot.py $R/buildings_em_choice $R/sparse_em_choice \
+PYTHONPATH= /work/main/.venv/bin/python /work/main/benchmarks/study_zero_shot.py $R/buildings_em_choice $R/sparse_em_choice \
   --reference $R/buildings_em $R/sparse_em --pool val_whole_em_choice --out targets_em_choice > study_em_choice.log 2>&1
