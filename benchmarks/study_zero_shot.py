@@ -103,12 +103,9 @@ def check(name: str, runs: list[dict], out: Path, resamples: int, policy: str = 
     (out / "targets.md").write_text(zero_shot.targets_markdown(entries))
     (out / "targets.json").write_text(json.dumps(zero_shot.targets_json(entries), indent=1))
     print(f"{name}:\n{zero_shot.targets_markdown(entries)}")
-    return {e["scene"]: {key: e[key] for key in ("travel_ratio", "travel_ratio_ci95", "error_ratio", "error_ratio_ci95",
-                                                 "equal_travel_error_ratio", "equal_travel_error_ratio_ci95",
-                                                 "closures_ratio", "closures_ratio_ci95",
-                                                 "speedup", "speedup_ci95", "travel_met", "error_met", "speed_met",
-                                                 "trials_to_resolve")}
-            for e in entries}
+    keys = [*(k for ratio in zero_shot.KEYS for k in (ratio, f"{ratio}_ci95")), "travel_met", "error_met",
+            "speed_met", "trials_to_resolve"]
+    return {e["scene"]: {key: e[key] for key in keys} for e in entries}
 
 
 def main() -> None:

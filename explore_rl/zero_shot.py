@@ -64,7 +64,7 @@ class TrialPoint:
     map_error_m: float
     ms_decide: float
     run: dict
-    closures_per_m: float = float("nan")
+    closures_per_m: float
 
 
 def common_coverage(runs: Sequence[dict], target: float) -> float:
