@@ -114,4 +114,4 @@ class PolicyConfig:
     shipped policy (explore_rl/planning/learned.py)."""
 
     name: str = "nearest"
-    checkpoint: Optional[str] = "policies/buildings_sparse_distill/actor.pt"
+    checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"

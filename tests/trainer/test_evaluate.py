@@ -118,7 +118,7 @@ def test_the_cache_key_follows_what_changes_an_episode():
 def test_an_actor_of_other_features_is_refused_before_any_episode(tmp_path):
     """The shipped actor reads the extended features: under graph.features=paper the protocol
     fails at once, naming the fix, instead of in the learned policy's first decision."""
-    shipped = "policies/buildings_sparse_distill/actor.pt"
+    shipped = "policies/buildings_sparse_em_choice/actor.pt"
     cache = tmp_path / "episodes.jsonl"
     with pytest.raises(ValueError, match="set graph.features=extended"):
         run_protocol(load_config(FAST), episode_specs([4], 1), ["em", "learned"], 1, actor_path=shipped, cache=cache)
