@@ -65,7 +65,8 @@ def compare(path_a: Path, path_b: Path) -> None:
     a_sets, b_sets = json.loads(path_a.read_text()), json.loads(path_b.read_text())
     for name, columns in a_sets.items():
         for policy in ("em", "nearest", "random"):  # the same episodes, so the same baselines
-            assert np.allclose(columns[policy], b_sets[name][policy]), f"{name}: {policy} differs"
+            if not np.allclose(columns[policy], b_sets[name][policy]):
+                raise SystemExit(f"{name}: {policy} differs between the two files: not the same episodes")
         values = {policy: np.array(column) for policy, column in columns.items()}
         values["other"] = np.array(b_sets[name]["learned"])
 

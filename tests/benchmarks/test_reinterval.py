@@ -1,0 +1,65 @@
+"""benchmarks/results/selection_v6/reinterval.py on the committed per-episode rewards of two
+held-out tests (session 33's default, session 35's): the figures RESULTS.md quotes, each point
+estimate checked against gap_closed computed here from the same numbers."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+FOLDER = ROOT / "benchmarks" / "results" / "selection_v6"
+SCRIPT = FOLDER / "reinterval.py"
+NEW, OLD = FOLDER / "test35_episode_rewards.json", FOLDER / "test33_episode_rewards.json"
+LINE = re.compile(r"^(\w+): (\d+) episodes, gap_closed (?:difference )?([+-][\d.]+) \[([+-][\d.]+), ([+-][\d.]+)\]")
+
+
+def run(*args: object) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *map(str, args)], capture_output=True, text=True, cwd=ROOT)
+
+
+def parsed(stdout: str) -> dict[str, tuple[int, float, float, float]]:
+    rows = {}
+    for line in stdout.splitlines():
+        match = LINE.match(line)
+        assert match, line
+        name, episodes, point, low, high = match.groups()
+        rows[name] = (int(episodes), float(point), float(low), float(high))
+    return rows
+
+
+def gap(columns: dict[str, list[float]], learned: str = "learned") -> float:
+    means = {name: float(np.mean(values)) for name, values in columns.items()}
+    return (means[learned] - means["random"]) / (means["em"] - means["random"])
+
+
+def test_intervals_give_the_gap_closed_of_the_episodes_with_an_interval_around_it():
+    result = run("intervals", NEW)
+    assert result.returncode == 0, result.stderr
+    rows, sets = parsed(result.stdout), json.loads(NEW.read_text())
+    assert set(rows) == {"office", "building"}
+    for name, (episodes, point, low, high) in rows.items():
+        assert episodes == len(sets[name]["learned"])
+        assert point == pytest.approx(gap(sets[name]), abs=1e-3)
+        assert low < point < high
+
+
+def test_compare_gives_the_paired_difference_and_refuses_other_baselines(tmp_path):
+    result = run("compare", NEW, OLD)
+    assert result.returncode == 0, result.stderr
+    new, old = json.loads(NEW.read_text()), json.loads(OLD.read_text())
+    for name, (_, point, low, high) in parsed(result.stdout).items():
+        assert point == pytest.approx(gap(new[name]) - gap(old[name]), abs=1e-3)
+        assert low < point < high
+    other = json.loads(OLD.read_text())
+    other["office"]["em"][0] += 1.0  # not the same episodes any more
+    tampered = tmp_path / "other.json"
+    tampered.write_text(json.dumps(other))
+    refused = run("compare", NEW, tampered)
+    assert refused.returncode != 0 and "office: em differs" in refused.stderr
