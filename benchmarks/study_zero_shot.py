@@ -51,6 +51,9 @@ def parse_args() -> argparse.Namespace:
                              "candidate's runs, a direct comparison)")
     parser.add_argument("--pool", default=None, metavar="NAME",
                         help="also check all reports' scenes as one pooled set, written to NAME/")
+    parser.add_argument("--plots", action="store_true",
+                        help="also draw each report's map error and 3D volume against travel per scene, the policy "
+                             "and the reference together (SCENE_map_error.png, SCENE_volume.png beside targets.md)")
     parser.add_argument("--resamples", type=int, default=zero_shot.RESAMPLES, help="bootstrap resamples")
     parser.add_argument("--smoke", action="store_true", help="for the test suite: 50 resamples")
     return parser.parse_args()
@@ -108,6 +111,14 @@ def check(name: str, runs: list[dict], out: Path, resamples: int, policy: str = 
     return {e["scene"]: {key: e[key] for key in keys} for e in entries}
 
 
+def plot(runs: list[dict], out: Path, policy: str, reference: str) -> list[Path]:
+    """The paper's two plots of every scene of ``runs``, ``policy`` and ``reference`` only (a
+    reference run that was paired in from another folder is drawn beside the policy's)."""
+    shown = [run for run in runs if run["policy"] in (policy, reference)]
+    return [path for scene in sorted({run["scene"] for run in shown})
+            for path in comparison.plot_scene(shown, scene, out)]
+
+
 def main() -> None:
     args = parse_args()
     folders = [Path(name) for name in args.reports]
@@ -133,6 +144,8 @@ def main() -> None:
     for folder in folders:
         out = folder if args.out is None else Path(args.out) / folder.name
         result["reports"][folder.name] = check(folder.name, reports[folder.name], out, resamples, args.policy, reference)
+        if args.plots:
+            plot(reports[folder.name], out, args.policy, reference)
     if args.pool is not None:
         out = (folders[0].parent if args.out is None else Path(args.out)) / args.pool
         pool = check(args.pool, pooled(reports), out, resamples, args.policy, reference)

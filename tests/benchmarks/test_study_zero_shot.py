@@ -19,8 +19,8 @@ SCRIPT = "benchmarks/study_zero_shot.py"
 def trial(scene: str, policy: str, travel_per_step: float, error: float, ms: float) -> dict:
     """A trial exploring 10 % per decision over 10 decisions, ``travel_per_step`` metres each,
     with a constant map error ``error``."""
-    rows = [{"decision": i, "travel_m": travel_per_step * (i + 1), "explored": 0.1 * (i + 1), "map_error_m": error}
-            for i in range(10)]
+    rows = [{"decision": i, "travel_m": travel_per_step * (i + 1), "explored": 0.1 * (i + 1), "map_error_m": error,
+             "volume_m3": 5.0 * (i + 1)} for i in range(10)]
     return {"scene": scene, "policy": policy, "trial": 0, "seed": 0, "status": "explored", "rows": rows,
             "ms_decide": ms}
 
@@ -78,6 +78,19 @@ def test_reference_policy_learned_compares_two_candidates_directly(runs: dict[st
     assert math.isclose(pooled["error_ratio"], 1.5, rel_tol=1e-9)
     assert math.isclose(pooled["speedup"], 1.0, rel_tol=1e-9)
     assert "learned against learned_reference" in (tmp_path / "direct/first_learned/targets.md").read_text()
+
+
+def test_plots_draw_the_policy_and_the_paired_reference_per_scene(runs: dict[str, Path], tmp_path: Path) -> None:
+    from PIL import Image
+
+    run_script(SCRIPT, str(runs["first_learned"]), "--reference", str(runs["first_em"]), "--plots",
+               "--out", str(tmp_path / "plots"), "--smoke", cwd=tmp_path)
+    drawn = sorted(path.name for path in (tmp_path / "plots/first_learned").glob("*.png"))
+    assert drawn == ["b_1_map_error.png", "b_1_volume.png", "b_2_map_error.png", "b_2_volume.png"]
+    assert Image.open(tmp_path / "plots/first_learned/b_1_map_error.png").size[0] > 100
+    run_script(SCRIPT, str(runs["second_learned"]), "--reference", str(runs["second_em"]),
+               "--out", str(tmp_path / "none"), "--smoke", cwd=tmp_path)
+    assert not list((tmp_path / "none/second_learned").glob("*.png"))  # only with --plots
 
 
 def test_policy_em_against_another_em_run(runs: dict[str, Path], tmp_path: Path) -> None:

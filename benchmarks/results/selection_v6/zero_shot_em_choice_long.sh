@@ -20,6 +20,7 @@ for d in /work/runs/zs35/buildings/*_building_*; do
   dst=$KEEP/buildings/$(basename $d) && mkdir -p $dst && cp $d/trials.jsonl $d/summary.md $dst/
 done
 $PY $STUDY $KEEP/street_garage $KEEP/buildings --reference $V5/street_garage $V5/buildings \
-  --out $HERE/zero_shot_em_choice_long > $HERE/zero_shot_em_choice_long.log
+  --plots --out $HERE/zero_shot_em_choice_long > $HERE/zero_shot_em_choice_long.log
 $PY $STUDY $KEEP/street_garage $KEEP/buildings --reference $V5/street_garage $V5/buildings --reference-policy learned \
   --out $HERE/zero_shot_em_choice_long_vs_default > $HERE/zero_shot_em_choice_long_vs_default.log
+rm -f $HERE/zero_shot_em_choice_long/buildings/*.png  # one trial per building: the street and garage plots are kept
