@@ -1,6 +1,7 @@
-"""benchmarks/results/selection_v6/reinterval.py on the committed per-episode rewards of two
-held-out tests (session 33's default, session 35's): the figures RESULTS.md quotes, each point
-estimate checked against gap_closed computed here from the same numbers."""
+"""The analysis scripts of benchmarks/results/selection_v6 on their committed inputs:
+reinterval.py on the per-episode rewards of two held-out tests (session 33's default, session
+35's), each point estimate checked against gap_closed computed here from the same numbers; the
+validation curve of session 35's run from its logs."""
 
 from __future__ import annotations
 
@@ -63,3 +64,25 @@ def test_compare_gives_the_paired_difference_and_refuses_other_baselines(tmp_pat
     tampered.write_text(json.dumps(other))
     refused = run("compare", NEW, tampered)
     assert refused.returncode != 0 and "office: em differs" in refused.stderr
+
+
+def test_the_curve_script_reads_the_committed_validation_logs(tmp_path):
+    """curve_em_choice_long.py: update 0 is the previous default's validation, every row's mean
+    is the mean of its four sets, wall-clock grows with the update."""
+    import csv
+
+    result = subprocess.run([sys.executable, str(FOLDER / "curve_em_choice_long.py"), str(tmp_path)],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader((tmp_path / "curve_em_choice_long.csv").open()))
+    kinds = ("office", "building", "lots", "sparse")
+    first = rows[0]
+    for kind in kinds:
+        protocol = json.loads((ROOT / "benchmarks/results/selection_v4" / kind / "dagger_sparse_last/protocol.json")
+                              .read_text())
+        assert float(first[kind]) == pytest.approx(protocol["gap_closed"], abs=1e-3)
+    for row in rows:
+        assert float(row["mean"]) == pytest.approx(np.mean([float(row[k]) for k in kinds]), abs=2e-3)
+    minutes = [float(row["stage_minutes"]) for row in rows]
+    assert int(rows[0]["update"]) == 0 and int(rows[-1]["update"]) == 825 and minutes == sorted(minutes)
+    assert (tmp_path / "curve_em_choice_long.png").stat().st_size > 1000

@@ -1,0 +1,86 @@
+"""Issue 24's curve for the shipped policy's last stage: 10-decision validation gap_closed of
+em_choice_long's snapshots against training wall-clock (descriptive; nothing was picked from it).
+
+Reads the committed logs only: the previous default (update 0) from selection_v4's validation,
+the snapshots from ``curve_em_choice_long.log``, the last checkpoint from ``em_choice_long.log``,
+each snapshot's wall-clock from the run's scalars (``em_choice_long_run/``). Writes
+``curve_em_choice_long.csv`` and ``.png`` beside this file (or into OUT).
+
+    python benchmarks/results/selection_v6/curve_em_choice_long.py [OUT]
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+KINDS = ("office", "building", "lots", "sparse")
+PREVIOUS_MINUTES = 164.0  # the previous default's training, in all (its card)
+HEADER = re.compile(r"^== em_choice_long (?:update (\d+) )?(office|building|lots|sparse)$")
+
+
+def logged_gaps(log: Path, update: int | None = None) -> dict[tuple[int, str], float]:
+    """``(update, kind) -> gap_closed`` from a validation log: each ``== ...`` header line is
+    followed (after the study's own lines) by its JSON result; ``update`` for headers without one."""
+    gaps, key = {}, None
+    for line in log.read_text().splitlines():
+        match = HEADER.match(line)
+        if match:
+            key = (int(match.group(1)) if match.group(1) else update, match.group(2))
+        elif line.startswith("{") and key is not None:
+            gaps[key] = json.loads(line)["gap_closed"]
+            key = None
+    return gaps
+
+
+def minutes_at(update: int) -> float:
+    """The run's wall-clock minutes at ``update`` (its scalars: decisions -> update, decisions -> s)."""
+    folder = HERE / "em_choice_long_run"
+    updates = {float(u): int(frames) for frames, u in csv.reader((folder / "updates.csv").open())}
+    seconds = {int(frames): float(s) for frames, s in csv.reader((folder / "wall_s.csv").open())}
+    return seconds[updates[float(update)]] / 60.0 if update else 0.0
+
+
+def main(out: Path = HERE) -> None:
+    gaps = {(0, kind): json.loads((HERE.parent / "selection_v4" / kind / "dagger_sparse_last" / "protocol.json")
+                                  .read_text())["gap_closed"] for kind in KINDS}
+    gaps |= logged_gaps(HERE / "curve_em_choice_long.log")
+    gaps |= logged_gaps(HERE / "em_choice_long.log", update=825)
+    updates = sorted({update for update, _ in gaps})
+    rows = []
+    for update in updates:
+        values = [gaps[(update, kind)] for kind in KINDS]
+        minutes = minutes_at(update)
+        rows.append({"update": update, "stage_minutes": round(minutes, 1),
+                     "total_minutes": round(PREVIOUS_MINUTES + minutes, 1),
+                     **{kind: round(v, 3) for kind, v in zip(KINDS, values)}, "mean": round(sum(values) / 4, 3)})
+    with (out / "curve_em_choice_long.csv").open("w", newline="") as table:
+        writer = csv.DictWriter(table, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    x = [row["total_minutes"] for row in rows]
+    for kind in KINDS:
+        ax.plot(x, [row[kind] for row in rows], marker=".", alpha=0.6, label=kind)
+    ax.plot(x, [row["mean"] for row in rows], marker="o", color="black", label="mean of the four")
+    ax.set(xlabel="training wall-clock in all [min] (2-core CPU)", ylabel="validation gap_closed (10 decisions)",
+           title="em_choice DAgger from the previous default (164 min)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    fig.savefig(out / "curve_em_choice_long.png", dpi=120)
+    for row in rows:
+        print(row)
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else HERE)
