@@ -131,6 +131,9 @@ def main() -> None:
     if args.reference is None and args.reference_policy == args.policy:
         raise SystemExit(f"--policy {args.policy}: the same as the reference policy; pass --reference FOLDER ... "
                          "(another run of it) to compare it with itself")
+    if args.plots and args.out is None:
+        raise SystemExit("--plots: pass --out DIR too (in the reports' own folders the plots would replace "
+                         "explore-rl-eval's, which show every policy)")
     reports = {folder.name: read_report(folder) for folder in folders}
     if len(reports) != len(folders):
         raise SystemExit("reports: two folders share a name; pass folders with distinct names")

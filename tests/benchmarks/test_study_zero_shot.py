@@ -91,6 +91,10 @@ def test_plots_draw_the_policy_and_the_paired_reference_per_scene(runs: dict[str
     run_script(SCRIPT, str(runs["second_learned"]), "--reference", str(runs["second_em"]),
                "--out", str(tmp_path / "none"), "--smoke", cwd=tmp_path)
     assert not list((tmp_path / "none/second_learned").glob("*.png"))  # only with --plots
+    refused = subprocess.run([sys.executable, str(ROOT / SCRIPT), str(runs["first_learned"]), "--reference",
+                              str(runs["first_em"]), "--plots", "--smoke"], capture_output=True, text=True)
+    assert refused.returncode != 0 and "--plots: pass --out DIR" in refused.stderr
+    assert not list(runs["first_learned"].rglob("*.png"))  # the report's folder untouched
 
 
 def test_policy_em_against_another_em_run(runs: dict[str, Path], tmp_path: Path) -> None:
