@@ -37,12 +37,13 @@ def logged_gaps(log: Path, update: int | None = None) -> dict[tuple[int, str], f
     return gaps
 
 
-def minutes_at(update: int) -> float:
-    """The run's wall-clock minutes at ``update`` (its scalars: decisions -> update, decisions -> s)."""
+def minutes_by_update() -> dict[int, float]:
+    """The run's wall-clock minutes at each update (its scalars: decisions -> update, decisions -> s);
+    update 0 is the start."""
     folder = HERE / "em_choice_long_run"
-    updates = {float(u): int(frames) for frames, u in csv.reader((folder / "updates.csv").open())}
     seconds = {int(frames): float(s) for frames, s in csv.reader((folder / "wall_s.csv").open())}
-    return seconds[updates[float(update)]] / 60.0 if update else 0.0
+    return {0: 0.0} | {int(float(u)): seconds[int(frames)] / 60.0
+                       for frames, u in csv.reader((folder / "updates.csv").open())}
 
 
 def main(out: Path = HERE) -> None:
@@ -51,10 +52,10 @@ def main(out: Path = HERE) -> None:
     gaps |= logged_gaps(HERE / "curve_em_choice_long.log")
     gaps |= logged_gaps(HERE / "em_choice_long.log", update=825)
     updates = sorted({update for update, _ in gaps})
-    rows = []
+    minutes_at, rows = minutes_by_update(), []
     for update in updates:
         values = [gaps[(update, kind)] for kind in KINDS]
-        minutes = minutes_at(update)
+        minutes = minutes_at[update]
         rows.append({"update": update, "stage_minutes": round(minutes, 1),
                      "total_minutes": round(PREVIOUS_MINUTES + minutes, 1),
                      **{kind: round(v, 3) for kind, v in zip(KINDS, values)}, "mean": round(sum(values) / 4, 3)})
