@@ -8,6 +8,11 @@ STEPS_HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 STEPS_PY=/work/main/.venv/bin/python
 SPARSE_LOTS="scene.building.lot_probability=1 scene.building.size_min=28.0 scene.building.size_max=35.0 scene.building.lot_lane_width=[6.5,7.0] scene.building.lot_car_pitch=[6.0,6.5] scene.building.lot_gap_probability=0.5"
 
+_cached() {  # _cached EPISODES DIR: reuse cached baseline episodes when this machine has them; else the
+  # protocol plays the baselines again (EM, random and nearest are seeded: the same episodes, slower)
+  if [ -e $1 ]; then cp $1 $2/; else echo "== no cached baselines at $1: played again"; fi
+}
+
 validate_10() {  # validate_10 ACTOR NAME: 10-decision validation on office, buildings, lots, sparse lots
   local actor=$1 name=$2
   (
@@ -18,7 +23,7 @@ validate_10() {  # validate_10 ACTOR NAME: 10-decision validation on office, bui
     local args out
     for kind in office building lots sparse; do
       out=/work/runs/val/$kind/$name
-      mkdir -p $out && cp /work/runs/val/$kind/dagger_sparse_last/episodes.jsonl $out/
+      mkdir -p $out && _cached /work/runs/val/$kind/dagger_sparse_last/episodes.jsonl $out
       case $kind in
         office) args=$office ;;
         building) args=$build ;;
@@ -36,7 +41,7 @@ heldout_test() {  # heldout_test ACTOR DIR: the held-out 10-decision test (test3
   (
     cd /work/train_code32 && export PYTHONPATH=/work/train_code32
     local py="nice -n 5 $STEPS_PY benchmarks/study_learning.py --policy $actor --max-decisions 10 --workers 2 --set graph.features=extended"
-    for kind in office building; do mkdir -p $dir/$kind && cp /work/runs/test33/$kind/episodes.jsonl $dir/$kind/; done
+    for kind in office building; do mkdir -p $dir/$kind && _cached /work/runs/test33/$kind/episodes.jsonl $dir/$kind; done
     echo "== test office"
     $py --layouts 2000 2001 --starts 9 --out $dir/office
     echo "== test building"
