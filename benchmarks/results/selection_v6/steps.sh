@@ -6,17 +6,42 @@
 # session-34 code (EM's and the default's trials were). Each function sets its own PYTHONPATH in a subshell.
 STEPS_HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 STEPS_PY=/work/main/.venv/bin/python
+# The frozen code, as git worktrees of this repository (made where missing, e.g. on a new machine):
+# session-32 start (14db3d3; explore_rl/ and conf/ as f72406b) and session-34 main (21e9525).
+STEPS_CODE32=14db3d3
+STEPS_CODE34=21e9525
+_frozen() {  # _frozen DIR COMMIT: cd into the frozen code at DIR (a worktree of COMMIT) with it on PYTHONPATH
+  [ -e $1/explore_rl ] || git -C $STEPS_HERE worktree add --detach $1 $2 > /dev/null
+  cd $1 && export PYTHONPATH=$1
+}
 SPARSE_LOTS="scene.building.lot_probability=1 scene.building.size_min=28.0 scene.building.size_max=35.0 scene.building.lot_lane_width=[6.5,7.0] scene.building.lot_car_pitch=[6.0,6.5] scene.building.lot_gap_probability=0.5"
 
-_cached() {  # _cached EPISODES DIR: reuse cached baseline episodes when this machine has them; else the
-  # protocol plays the baselines again (EM, random and nearest are seeded: the same episodes, slower)
-  if [ -e $1 ]; then cp $1 $2/; else echo "== no cached baselines at $1: played again"; fi
+_cached() {  # _cached EPISODES DIR: the baseline episodes (EM, random, nearest; keyed by code, config and policy)
+  # from this machine's cache, else from the copy kept in the repository (caches/, see keep_caches), else none:
+  # the protocol then plays the baselines again (they are seeded: the same episodes, slower)
+  local kept=$STEPS_HERE/caches/${1#/work/runs/}
+  if [ -e $1 ]; then cp $1 $2/
+  elif [ -e $kept ]; then cp $kept $2/ && echo "== baselines from $kept"
+  else echo "== no cached baselines at $1: played again"; fi
+}
+
+keep_caches() {  # keep_caches NAME TESTDIR: keep the episode caches that NAME's validation and the test in TESTDIR
+  # played, in the repository (caches/, small JSON lines), where _cached finds them on a machine without them
+  local name=$1 test=$2 kind
+  for kind in office building lots sparse; do
+    mkdir -p $STEPS_HERE/caches/val/$kind/dagger_sparse_last
+    cp /work/runs/val/$kind/$name/episodes.jsonl $STEPS_HERE/caches/val/$kind/dagger_sparse_last/
+  done
+  for kind in office building; do
+    mkdir -p $STEPS_HERE/caches/test33/$kind
+    cp $test/$kind/episodes.jsonl $STEPS_HERE/caches/test33/$kind/
+  done
 }
 
 validate_10() {  # validate_10 ACTOR NAME: 10-decision validation on office, buildings, lots, sparse lots
   local actor=$1 name=$2
   (
-    cd /work/train_code32 && export PYTHONPATH=/work/train_code32
+    _frozen /work/train_code32 $STEPS_CODE32
     local py="nice -n 5 $STEPS_PY benchmarks/study_learning.py --policy $actor"
     local office="--layouts 1000 1001 1002 1003 1004 1005 1006 1007 1008 1009 --starts 3 --max-decisions 10 --workers 2 --set graph.features=extended"
     local build="--scene building --layouts 1000 1001 1002 1003 1004 --starts 4 --max-decisions 10 --workers 2 --set graph.features=extended"
@@ -39,7 +64,7 @@ validate_10() {  # validate_10 ACTOR NAME: 10-decision validation on office, bui
 heldout_test() {  # heldout_test ACTOR DIR: the held-out 10-decision test (test33's cached episodes), once
   local actor=$1 dir=$2
   (
-    cd /work/train_code32 && export PYTHONPATH=/work/train_code32
+    _frozen /work/train_code32 $STEPS_CODE32
     local py="nice -n 5 $STEPS_PY benchmarks/study_learning.py --policy $actor --max-decisions 10 --workers 2 --set graph.features=extended"
     for kind in office building; do mkdir -p $dir/$kind && _cached /work/runs/test33/$kind/episodes.jsonl $dir/$kind; done
     echo "== test office"
@@ -52,7 +77,7 @@ heldout_test() {  # heldout_test ACTOR DIR: the held-out 10-decision test (test3
 whole_two_trials() {  # whole_two_trials ACTOR NAME: whole explorations of the 20 validation scenes, seeds 0 and 1
   local actor=$1 name=$2
   (
-    cd /work/train_code34 && export PYTHONPATH=/work/train_code34
+    _frozen /work/train_code34 $STEPS_CODE34
     local eval="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
     local seeds=scene.seed=1000,1001,1002,1003,1004,1005,1006,1007,1008,1009
     local common
@@ -107,7 +132,7 @@ pool_whole() {  # pool_whole NAME OTHER LABEL: NAME's two trials per scene again
 zero_shot_trials() {  # zero_shot_trials ACTOR DIR: street and garage 20 trials, 20 held-out buildings (learned only)
   local actor=$1 dir=$2
   (
-    cd /work/train_code32 && export PYTHONPATH=/work/train_code32
+    _frozen /work/train_code32 $STEPS_CODE32
     local eval="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
     local common="graph.max_nodes=1024 evaluate.progress_bar=false evaluate.policies=[learned] policy.checkpoint=$actor"
     $eval -m scene=street,garage evaluate.trials=10 $common out=$dir/street_garage_a
