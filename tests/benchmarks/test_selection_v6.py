@@ -86,3 +86,31 @@ def test_the_curve_script_reads_the_committed_validation_logs(tmp_path):
     minutes = [float(row["stage_minutes"]) for row in rows]
     assert int(rows[0]["update"]) == 0 and int(rows[-1]["update"]) == 825 and minutes == sorted(minutes)
     assert (tmp_path / "curve_em_choice_long.png").stat().st_size > 1000
+
+
+def test_keep_actors_strips_to_a_loadable_actor_with_the_same_weights(tmp_path):
+    """keep_actors.py on a training checkpoint (tiny model, made here): the kept file has only the actor's parts,
+    loads as a policy with bitwise the same weights, and a file that is no training checkpoint is refused."""
+    import torch
+
+    from explore_rl.models.actor_file import read_actor_file
+    from explore_rl.models.checkpoint import FORMAT
+    from tests.policy_files import training_checkpoint
+
+    checkpoints = tmp_path / "checkpoints"
+    checkpoints.mkdir()
+    training_checkpoint(checkpoints / "last.pt")
+    assert {"critic", "optimizer"} <= set(torch.load(checkpoints / "last.pt", map_location="cpu", weights_only=False))
+    done = subprocess.run([sys.executable, str(FOLDER / "keep_actors.py"), str(checkpoints), str(tmp_path / "kept")],
+                          capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    kept = torch.load(tmp_path / "kept" / "last.pt", map_location="cpu", weights_only=False)
+    assert set(kept) == {"format", "model", "config", "actor", "state"}
+    a, b = read_actor_file(tmp_path / "kept" / "last.pt"), read_actor_file(checkpoints / "last.pt")
+    assert a.features == b.features and a.weights.keys() == b.weights.keys()
+    assert all(torch.equal(a.weights[key], b.weights[key]) for key in a.weights)
+
+    torch.save({"format": FORMAT}, checkpoints / "last.pt")
+    refused = subprocess.run([sys.executable, str(FOLDER / "keep_actors.py"), str(checkpoints), str(tmp_path / "k2")],
+                             capture_output=True, text=True, cwd=ROOT)
+    assert refused.returncode != 0 and "not a training checkpoint" in refused.stderr
