@@ -13,7 +13,7 @@ DATA=/work/runs/data_scratch
 keep_run() {  # keep_run RUN NAME: the run's actors (keep_actors.py), config and scalars into scratch_run/NAME,
   # at once after training: /work/runs is lost with its machine (session 37's run was, before its evaluation)
   local run=$1 out=$HERE/scratch_run/$2
-  /work/main/.venv/bin/python $HERE/keep_actors.py $run/checkpoints $out > /dev/null
+  $STEPS_PY $HERE/keep_actors.py $run/checkpoints $out > /dev/null
   cp $run/config.yaml $out/ 2>/dev/null || cp $run/.hydra/config.yaml $out/ 2>/dev/null || true
   cp $run/logs/a2c/scalars/*.csv $out/ 2>/dev/null || echo "== no scalars under $run/logs/a2c/scalars"
   echo "== kept $run in $out"
