@@ -114,3 +114,39 @@ def test_keep_actors_strips_to_a_loadable_actor_with_the_same_weights(tmp_path):
     refused = subprocess.run([sys.executable, str(FOLDER / "keep_actors.py"), str(checkpoints), str(tmp_path / "k2")],
                              capture_output=True, text=True, cwd=ROOT)
     assert refused.returncode != 0 and "not a training checkpoint" in refused.stderr
+
+
+def test_the_scratch_curve_places_each_snapshot_after_its_stage(tmp_path):
+    """scratch_curve.py on a validation log made here (the form validate_10 writes): a stage-2 snapshot's minutes and
+    decisions come after all of stage 1's, the last snapshots are the stages' last updates, a snapshot missing a set
+    is left out, and each row's mean is the mean of its four sets."""
+    import csv
+
+    kinds = ("office", "building", "lots", "sparse")
+    gaps = {"scratch_s38_office_update_00080": 0.1, "scratch_s38_office_last": 0.2,
+            "scratch_s38_sparse_update_00240": 0.3, "scratch_s38": 0.4}
+    lines = []
+    for name, gap in gaps.items():
+        for offset, kind in enumerate(kinds):
+            lines += [f"== {name} {kind}", "== some/actor.pt on office (held out): layouts [1000]",
+                      json.dumps({"gap_closed": gap + offset / 100})]
+    lines += ["== scratch_s38_sparse_update_00400 office", json.dumps({"gap_closed": 0.9})]  # incomplete
+    log = tmp_path / "validation.log"
+    log.write_text("\n".join(lines) + "\n")
+    result = subprocess.run([sys.executable, str(FOLDER / "scratch_curve.py"), str(tmp_path), str(log)],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader((tmp_path / "scratch_curve.csv").open()))
+    assert [(row["stage"], int(row["update"])) for row in rows] == [("office", 80), ("office", 174),
+                                                                   ("sparse", 240), ("sparse", 499)]
+    run = FOLDER / "scratch_run"
+    stage1 = np.loadtxt(run / "office" / "wall_s.csv", delimiter=",", ndmin=2)
+    stage2 = np.loadtxt(run / "sparse" / "wall_s.csv", delimiter=",", ndmin=2)
+    assert float(rows[1]["total_minutes"]) == pytest.approx(stage1[-1, 1] / 60, abs=0.05)
+    assert float(rows[3]["total_minutes"]) == pytest.approx((stage1[-1, 1] + stage2[-1, 1]) / 60, abs=0.05)
+    assert int(rows[3]["decisions"]) == int(stage1[-1, 0] + stage2[-1, 0])
+    assert int(rows[2]["decisions"]) == int(stage1[-1, 0]) + 240 * 20
+    for row, gap in zip(rows, gaps.values()):
+        assert float(row["office"]) == pytest.approx(gap) and float(row["sparse"]) == pytest.approx(gap + 0.03)
+        assert float(row["mean"]) == pytest.approx(np.mean([float(row[k]) for k in kinds]), abs=2e-3)
+    assert (tmp_path / "scratch_curve.png").stat().st_size > 1000
