@@ -7,9 +7,7 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/steps.sh
-ACTOR=/work/runs/scratch_sparse/checkpoints/last.pt
-# on a machine without the run: the same actor, kept in the repository by keep_actors.py (session 38's run)
-[ -e $ACTOR ] || ACTOR=$HERE/scratch_run/sparse/last.pt
+ACTOR=$SCRATCH_ACTOR
 date; uptime
 zero_shot_trials $ACTOR /work/runs/zs36
 zero_shot_study /work/runs/zs36 scratch

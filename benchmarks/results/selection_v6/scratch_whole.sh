@@ -5,8 +5,7 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/steps.sh
-ACTOR=/work/runs/scratch_sparse/checkpoints/last.pt
-[ -e $ACTOR ] || ACTOR=$HERE/scratch_run/sparse/last.pt
+ACTOR=$SCRATCH_ACTOR
 date; uptime
 whole_two_trials $ACTOR scratch
 keep_whole scratch

@@ -14,6 +14,10 @@ _frozen() {  # _frozen DIR COMMIT: cd into the frozen code at DIR (a worktree of
   [ -e $1/explore_rl ] || git -C $STEPS_HERE worktree add --detach $1 $2 > /dev/null
   cd $1 && export PYTHONPATH=$1
 }
+# Session 38's 2-hour actor (scratch_em_choice.sh): the run's own file where it ran, else the copy keep_actors.py
+# kept in the repository (same weights)
+SCRATCH_ACTOR=/work/runs/scratch_sparse/checkpoints/last.pt
+[ -e $SCRATCH_ACTOR ] || SCRATCH_ACTOR=$STEPS_HERE/scratch_run/sparse/last.pt
 SPARSE_LOTS="scene.building.lot_probability=1 scene.building.size_min=28.0 scene.building.size_max=35.0 scene.building.lot_lane_width=[6.5,7.0] scene.building.lot_car_pitch=[6.0,6.5] scene.building.lot_gap_probability=0.5"
 
 _cached() {  # _cached EPISODES DIR: the baseline episodes (EM, random, nearest; keyed by code, config and policy)
