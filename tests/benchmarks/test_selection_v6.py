@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from tensordict import TensorDict
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -150,3 +151,64 @@ def test_the_scratch_curve_places_each_snapshot_after_its_stage(tmp_path):
         assert float(row["office"]) == pytest.approx(gap) and float(row["sparse"]) == pytest.approx(gap + 0.03)
         assert float(row["mean"]) == pytest.approx(np.mean([float(row[k]) for k in kinds]), abs=2e-3)
     assert (tmp_path / "scratch_curve.png").stat().st_size > 1000
+
+
+def revisit_dataset(path, count: int = 24):
+    """A small DecisionDataset of made-up decisions with the extended node features (chain graphs, random
+    features and rewards, frontier rows masked in), for revisit_probe.py; returns it and EM's best rows."""
+    import torch
+
+    from explore_rl.config import load_config
+    from explore_rl.graph.features import feature_names
+    from explore_rl.trainer.dataset import DecisionDataset
+    from tests.trainer.test_dataset import schema_for
+
+    torch.manual_seed(0)
+    features = len(feature_names("extended"))
+    decisions, best = [], []
+    for index in range(count):
+        n = 6 + index % 5
+        mask = torch.zeros(n, dtype=torch.bool)
+        mask[n // 2:] = True
+        rewards = torch.where(mask, torch.randn(n), torch.zeros(n))
+        edges = torch.stack([torch.arange(n - 1), torch.arange(1, n)]).to(torch.int32)
+        x = torch.rand(n, features)
+        x[:, feature_names("extended").index("revisits")] = torch.randint(0, 4, (n,)).float()
+        decisions.append(TensorDict({"x": x, "edges": edges, "weights": torch.ones(n - 1), "action_mask": mask,
+                                     "action_rewards": rewards,
+                                     "em_action": rewards.masked_fill(~mask, -torch.inf).argmax()}, batch_size=[]))
+        best.append(int(rewards.masked_fill(~mask, -torch.inf).argmax()))
+    dataset = DecisionDataset(path, schema_for(load_config(["graph.features=extended"]), capacity=count))
+    dataset.append(decisions, scene="building")
+    return decisions, best
+
+
+def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path):
+    """revisit_probe.py on a dataset and a tiny actor made here: EM's side equals the revisits and path lengths
+    of the best-rewarded frontier computed here, one actor under two names gives the same figures, shares lie in
+    [0, 1]; an actor of the paper's features and a malformed --actor are refused in one line."""
+    from explore_rl.config import load_config
+    from explore_rl.graph.features import feature_names
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    decisions, best = revisit_dataset(tmp_path / "data")
+    actor, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
+    script = [sys.executable, str(FOLDER / "revisit_probe.py"), "--dataset", str(tmp_path / "data")]
+    result = subprocess.run([*script, "--actor", f"a={actor}", "--actor", f"b={actor}"],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    figures = json.loads(result.stdout.strip().splitlines()[-1])
+    assert figures["a"] == figures["b"] and figures["a"]["decisions"] == len(decisions)
+    names = list(feature_names("extended"))
+    revisits = [float(d["x"][row, names.index("revisits")]) for d, row in zip(decisions, best)]
+    lengths = [float(d["x"][row, names.index("path_length")]) for d, row in zip(decisions, best)]
+    assert figures["a"]["em_revisits"] == pytest.approx(np.mean(revisits), abs=1e-3)
+    assert figures["a"]["em_path_m"] == pytest.approx(np.mean(lengths), abs=1e-3)
+    assert figures["a"]["em_any_revisit"] == pytest.approx(np.mean(np.array(revisits) > 0), abs=1e-3)
+    for key in ("policy_any_revisit", "same_choice"):
+        assert 0.0 <= figures["a"][key] <= 1.0
+    paper, _ = actor_file(tmp_path / "paper", load_config([*TINY_MODEL, "graph.features=paper"]))
+    refused = subprocess.run([*script, "--actor", f"p={paper}"], capture_output=True, text=True, cwd=ROOT)
+    assert refused.returncode != 0 and "graph.features=extended" in refused.stderr.strip().splitlines()[-1]
+    malformed = subprocess.run([*script, "--actor", str(actor)], capture_output=True, text=True, cwd=ROOT)
+    assert malformed.returncode != 0 and "NAME=PATH" in malformed.stderr

@@ -1,14 +1,19 @@
 """Do the learned policies pick frontiers whose paths revisit fewer keyframes than EM's best?
-On the default's DAgger dataset (EM's Algorithm 1 reward of every frontier of 19,260 decisions, all
-training data of these actors: in-sample), per actor: the mean ``revisits`` (keyframes the path
-revisits: predicted loop closures) and ``path_length`` of its greedy choice and of EM's best, and how
-often each picks a frontier with any revisit. No simulation.
+On a DAgger dataset (EM's Algorithm 1 reward of every frontier of each decision), per actor: the mean
+``revisits`` (keyframes the path revisits: predicted loop closures) and ``path_length`` of its greedy
+choice and of EM's best, and how often each picks a frontier with any revisit. No simulation. Each
+actor is read with its own model and node features (from its file).
 
+    # session 34's record: the default's dataset (19,260 decisions, in-sample for all three actors)
     python benchmarks/results/selection_v6/revisit_probe.py
+    # another dataset and actors
+    python benchmarks/results/selection_v6/revisit_probe.py --dataset DIR --actor NAME=PATH [--actor ...]
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import json
 
 import torch
@@ -16,23 +21,34 @@ import torch
 from explore_rl.config import load_config
 from explore_rl.envs.keys import ACTION_REWARDS
 from explore_rl.graph.features import feature_names
+from explore_rl.models.actor_file import read_actor_file
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 from explore_rl.trainer.offline import offline_config
 
 DATASET = "/work/runs/data_dagger_sparse"
-ACTORS = {"default": ("/work/main/policies/buildings_sparse_distill/actor.pt", 128),
-          "wide": ("/work/main/benchmarks/results/selection_v5/candidate_wide_actor.pt", 256),
-          "dagger_wide": ("/work/runs/dagger_wide/checkpoints/last.pt", 256)}
+ACTORS = {"default": "/work/main/policies/buildings_sparse_distill/actor.pt",
+          "wide": "/work/main/benchmarks/results/selection_v5/candidate_wide_actor.pt",
+          "dagger_wide": "/work/runs/dagger_wide/checkpoints/last.pt"}
 
 
-def choices(path: str, hidden: int, dataset: DecisionDataset) -> dict[str, float]:
-    config = offline_config(load_config(["scene=building", "slam=model", "graph.features=extended",
-                                         f"model.hidden={hidden}"]))
-    learner = Learner(config)
+def greedy_learner(path: str) -> Learner:
+    """A learner holding the actor of ``path`` (actor file or training checkpoint) with its own model and
+    node features, in evaluation mode."""
+    actor_file = read_actor_file(path)
+    config = load_config(["scene=building", "slam=model", f"graph.features={actor_file.feature_set}"])
+    learner = Learner(dataclasses.replace(offline_config(config), model=actor_file.model))
     learner.load_initial_actor(path)
     learner.set_training(False)
-    names = list(feature_names("extended"))
+    return learner
+
+
+def choices(path: str, dataset: DecisionDataset) -> dict[str, float]:
+    learner = greedy_learner(path)
+    names = list(feature_names(learner.config.graph.features))
+    if "revisits" not in names or "path_length" not in names:
+        raise SystemExit(f"{path}: the actor reads graph.features={learner.config.graph.features}; the probe reads "
+                         "the revisits and path_length its features hold: give an actor of graph.features=extended")
     columns = dataset.columns_for(names)
     revisits, length = names.index("revisits"), names.index("path_length")
     sums = {"policy_revisits": 0.0, "em_revisits": 0.0, "policy_path_m": 0.0, "em_path_m": 0.0,
@@ -55,9 +71,20 @@ def choices(path: str, hidden: int, dataset: DecisionDataset) -> dict[str, float
     return {key: round(value / count, 3) for key, value in sums.items()} | {"decisions": count}
 
 
-def main() -> None:
-    dataset = DecisionDataset(DATASET)
-    result = {name: choices(path, hidden, dataset) for name, (path, hidden) in ACTORS.items()}
+def parse_actor(text: str) -> tuple[str, str]:
+    name, separator, path = text.partition("=")
+    if not separator or not name or not path:
+        raise argparse.ArgumentTypeError(f"--actor {text!r}: give NAME=PATH")
+    return name, path
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dataset", default=DATASET, help="a DecisionDataset folder (EM's rewards of every frontier)")
+    parser.add_argument("--actor", type=parse_actor, action="append", help="NAME=PATH (repeat; default: session 34's)")
+    args = parser.parse_args(argv)
+    dataset = DecisionDataset(args.dataset)
+    result = {name: choices(path, dataset) for name, path in (args.actor or ACTORS.items())}
     for name, row in result.items():
         print(name, row)
     print(json.dumps(result))
