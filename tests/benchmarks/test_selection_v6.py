@@ -164,7 +164,7 @@ def revisit_dataset(path, count: int = 24):
     from tests.trainer.test_dataset import schema_for
 
     torch.manual_seed(0)
-    features = len(feature_names("extended"))
+    names = feature_names("extended")
     decisions, best = [], []
     for index in range(count):
         n = 6 + index % 5
@@ -172,12 +172,12 @@ def revisit_dataset(path, count: int = 24):
         mask[n // 2:] = True
         rewards = torch.where(mask, torch.randn(n), torch.zeros(n))
         edges = torch.stack([torch.arange(n - 1), torch.arange(1, n)]).to(torch.int32)
-        x = torch.rand(n, features)
-        x[:, feature_names("extended").index("revisits")] = torch.randint(0, 4, (n,)).float()
+        x = torch.rand(n, len(names))
+        x[:, names.index("revisits")] = torch.randint(0, 4, (n,)).float()
+        em_action = rewards.masked_fill(~mask, -torch.inf).argmax()
         decisions.append(TensorDict({"x": x, "edges": edges, "weights": torch.ones(n - 1), "action_mask": mask,
-                                     "action_rewards": rewards,
-                                     "em_action": rewards.masked_fill(~mask, -torch.inf).argmax()}, batch_size=[]))
-        best.append(int(rewards.masked_fill(~mask, -torch.inf).argmax()))
+                                     "action_rewards": rewards, "em_action": em_action}, batch_size=[]))
+        best.append(int(em_action))
     dataset = DecisionDataset(path, schema_for(load_config(["graph.features=extended"]), capacity=count))
     dataset.append(decisions, scene="building")
     return decisions, best

@@ -31,9 +31,9 @@ def decisions_by_update(folder: Path) -> dict[int, int]:
     return {int(float(update)): int(frames) for frames, update in csv.reader((folder / "updates.csv").open())}
 
 
-def snapshot_update(stage: str, name: str) -> int:
-    """The update a kept snapshot holds: ``update_00080`` -> 80, ``last`` -> the stage's last update."""
-    return max(decisions_by_update(RUN / stage)) if name == "last" else int(name.removeprefix("update_"))
+def snapshot_update(name: str, last: int) -> int:
+    """The update a kept snapshot holds: ``update_00080`` -> 80, ``last`` -> the stage's ``last`` update."""
+    return last if name == "last" else int(name.removeprefix("update_"))
 
 
 def main(out: Path = HERE, log: Path = HERE / "scratch_curve.log") -> None:
@@ -46,7 +46,7 @@ def main(out: Path = HERE, log: Path = HERE / "scratch_curve.log") -> None:
         if any((snapshot, kind) not in gaps for kind in KINDS):
             continue
         stage, name = snapshot.split("_", 1)
-        update = snapshot_update(stage, name)
+        update = snapshot_update(name, last=max(decisions[stage]))
         offset_minutes, offset_decisions = (0.0, 0) if stage == "office" else (stage1_minutes, stage1_decisions)
         rows.append(curve_row({kind: gaps[(snapshot, kind)] for kind in KINDS}, stage=stage, update=update,
                               decisions=offset_decisions + decisions[stage][update],
