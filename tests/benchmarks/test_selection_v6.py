@@ -186,7 +186,8 @@ def revisit_dataset(path, count: int = 24):
 def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path):
     """revisit_probe.py on a dataset and a tiny actor made here: EM's side equals the revisits and path lengths
     of the best-rewarded frontier computed here, one actor under two names gives the same figures, shares lie in
-    [0, 1]; an actor of the paper's features and a malformed --actor are refused in one line."""
+    [0, 1]; an actor of the paper's features, a malformed --actor, a missing actor file and a folder without a
+    dataset are refused in one line."""
     from explore_rl.config import load_config
     from explore_rl.graph.features import feature_names
     from tests.policy_files import TINY_MODEL, actor_file
@@ -212,3 +213,7 @@ def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path):
     assert refused.returncode != 0 and "graph.features=extended" in refused.stderr.strip().splitlines()[-1]
     malformed = subprocess.run([*script, "--actor", str(actor)], capture_output=True, text=True, cwd=ROOT)
     assert malformed.returncode != 0 and "NAME=PATH" in malformed.stderr
+    for bad in (["--actor", f"a={tmp_path / 'missing.pt'}"], ["--actor", f"a={actor}", "--dataset", str(tmp_path)]):
+        refused = subprocess.run([*script, *bad], capture_output=True, text=True, cwd=ROOT)
+        last = refused.stderr.strip().splitlines()[-1]
+        assert refused.returncode != 0 and "Traceback" not in refused.stderr and str(tmp_path) in last

@@ -22,6 +22,7 @@ from explore_rl.config import load_config
 from explore_rl.envs.keys import ACTION_REWARDS
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_file import read_actor_file
+from explore_rl.models.checkpoint import CheckpointError
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 from explore_rl.trainer.offline import offline_config
@@ -83,8 +84,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--dataset", default=DATASET, help="a DecisionDataset folder (EM's rewards of every frontier)")
     parser.add_argument("--actor", type=parse_actor, action="append", help="NAME=PATH (repeat; default: session 34's)")
     args = parser.parse_args(argv)
-    dataset = DecisionDataset(args.dataset)
-    result = {name: choices(path, dataset) for name, path in (args.actor or ACTORS.items())}
+    actors = dict(args.actor or ACTORS.items())
+    try:  # every input checked before the first actor runs
+        dataset = DecisionDataset(args.dataset)
+        for path in actors.values():
+            read_actor_file(path)
+    except (ValueError, CheckpointError) as error:
+        parser.error(str(error))
+    result = {name: choices(path, dataset) for name, path in actors.items()}
     for name, row in result.items():
         print(name, row)
     print(json.dumps(result))
