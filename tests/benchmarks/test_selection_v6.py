@@ -151,6 +151,10 @@ def test_the_scratch_curve_places_each_snapshot_after_its_stage(tmp_path):
         assert float(row["office"]) == pytest.approx(gap) and float(row["sparse"]) == pytest.approx(gap + 0.03)
         assert float(row["mean"]) == pytest.approx(np.mean([float(row[k]) for k in kinds]), abs=2e-3)
     assert (tmp_path / "scratch_curve.png").stat().st_size > 1000
+    missing = subprocess.run([sys.executable, str(FOLDER / "scratch_curve.py"), str(tmp_path), str(tmp_path / "no.log")],
+                             capture_output=True, text=True, cwd=ROOT)
+    assert missing.returncode != 0 and missing.stderr.strip() == (
+        f"scratch_curve.py: no validation log at {tmp_path / 'no.log'}: give the log scratch_curve.sh wrote")
 
 
 def revisit_dataset(path, count: int = 24):

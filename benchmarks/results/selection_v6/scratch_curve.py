@@ -58,4 +58,7 @@ def main(out: Path = HERE, log: Path = HERE / "scratch_curve.log") -> None:
 
 
 if __name__ == "__main__":
-    main(*(Path(arg) for arg in sys.argv[1:3]))
+    paths = [Path(arg) for arg in sys.argv[1:3]]
+    if len(paths) > 1 and not paths[1].is_file():
+        sys.exit(f"scratch_curve.py: no validation log at {paths[1]}: give the log scratch_curve.sh wrote")
+    main(*paths)
