@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# plan.md: keep the trials of run.sh (and nearest.sh, where it ran) in runs/, then the figure of record
+# (study_zero_shot.py, pooled over every building both policies finished) and the association of the map-error
+# ratio with the loop-closure and travel ratios (association.py); the nearest-frontier yardstick the same way.
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+PY=${PY:-/work/main/.venv/bin/python}
+STUDY=$HERE/../../study_zero_shot.py
+keep() {  # keep SRC DST: each building's trials and summary, from a sweep folder
+  [ -d $1 ] || return 0
+  for d in $1/*_building_*/; do
+    [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
+    mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
+  done
+}
+for s in even odd; do
+  keep /work/runs/zs_b100/$s $HERE/runs/$s
+  keep /work/runs/zs_b100_nearest/$s $HERE/runs_nearest/$s
+done
+$PY $STUDY $HERE/runs/even $HERE/runs/odd --pool all_100 --out $HERE/targets > $HERE/study.log
+$PY $HERE/association.py $HERE/runs/even $HERE/runs/odd > $HERE/association.log
+if [ -d $HERE/runs_nearest ]; then
+  $PY $STUDY $HERE/runs_nearest/even $HERE/runs_nearest/odd --policy nearest --reference $HERE/runs/even \
+    $HERE/runs/odd --pool all_nearest --out $HERE/targets_nearest > $HERE/study_nearest.log
+  $PY $HERE/association.py $HERE/runs_nearest/even $HERE/runs_nearest/odd $HERE/runs/even $HERE/runs/odd \
+    --policy nearest > $HERE/association_nearest.log
+fi
