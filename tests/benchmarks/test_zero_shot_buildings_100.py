@@ -62,5 +62,7 @@ def test_bad_reports_fail_in_one_line(tmp_path: Path) -> None:
         return proc.stderr.strip().splitlines()[-1]
 
     assert "is not a folder" in refusal(str(tmp_path / "missing"))
+    (tmp_path / "empty").mkdir()
+    assert "no trials.jsonl in it or its sub-folders" in refusal(str(tmp_path / "empty"))
     report = write_report(tmp_path / "report")
     assert "0 scenes with a trial of both 'learned' and 'nearest'" in refusal(str(report), "--reference", "nearest")

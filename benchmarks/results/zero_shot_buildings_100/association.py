@@ -29,6 +29,9 @@ from scipy.stats import spearmanr
 from explore_rl.intervals import percentile_levels
 from explore_rl.zero_shot import ZeroShotTargets, common_coverage, trial_point
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from study_zero_shot import read_report  # noqa: E402  (benchmarks/: how the zero-shot study reads a report)
+
 FIGURES = ("error", "closures", "travel")
 
 
@@ -37,11 +40,8 @@ def paired_trials(reports: list[Path], policy: str, reference: str) -> dict[str,
     trial per scene and policy, as the building sweeps run; of several, the last read)."""
     by_scene: dict[str, dict[str, dict]] = {}
     for report in reports:
-        for path in sorted(report.glob("*/trials.jsonl")):
-            for line in path.read_text().splitlines():
-                if line.strip():
-                    run = json.loads(line)
-                    by_scene.setdefault(run["scene"], {})[run["policy"]] = run
+        for run in read_report(report):
+            by_scene.setdefault(run["scene"], {})[run["policy"]] = run
     return {scene: (runs[policy], runs[reference]) for scene, runs in sorted(by_scene.items())
             if policy in runs and reference in runs}
 
