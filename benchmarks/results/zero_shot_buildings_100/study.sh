@@ -25,3 +25,14 @@ if [ -d $HERE/runs_nearest ]; then
   $PY $HERE/association.py $HERE/runs_nearest/even $HERE/runs_nearest/odd $HERE/runs/even $HERE/runs/odd \
     --policy nearest > $HERE/association_nearest.log
 fi
+# the shipped policy on the buildings the yardstick finished, for a like-for-like row (trials read from runs/)
+if [ -d $HERE/runs_nearest ]; then
+  for s in even odd; do
+    SUBSET=""
+    for d in $HERE/runs_nearest/$s/*_building_*/; do SUBSET="$SUBSET $HERE/runs/$s/$(basename $d)"; done
+    rm -rf $HERE/subset_nearest/$s && mkdir -p $HERE/subset_nearest/$s && cp -r $SUBSET $HERE/subset_nearest/$s/
+  done
+  $PY $STUDY $HERE/subset_nearest/even $HERE/subset_nearest/odd --pool all_nearest_subset \
+    --out $HERE/targets_nearest_subset > $HERE/study_nearest_subset.log
+  rm -rf $HERE/subset_nearest  # copies of runs/, not kept
+fi
