@@ -36,3 +36,17 @@ if [ -d $HERE/runs_nearest ]; then
     --out $HERE/targets_nearest_subset > $HERE/study_nearest_subset.log
   rm -rf $HERE/subset_nearest  # copies of runs/, not kept
 fi
+# secondary (plan.md): the 20 earlier held-out buildings (session 35's trials of the shipped policy, frozen
+# session-32 code, paired with EM's of zero_shot_v5_20) pooled with these 100; the 100's learned trials go in a
+# learned-only copy, since study_zero_shot.py pairs a report with --reference only when it holds no EM trials
+rm -rf $HERE/learned_only
+for s in even odd; do
+  for d in $HERE/runs/$s/*_building_*/; do
+    mkdir -p $HERE/learned_only/$s/$(basename $d)
+    grep '"policy": "learned"' $d/trials.jsonl > $HERE/learned_only/$s/$(basename $d)/trials.jsonl
+  done
+done
+$PY $STUDY $HERE/../selection_v6/zero_shot_runs/buildings $HERE/learned_only/even $HERE/learned_only/odd \
+  --reference $HERE/../zero_shot_v5_20/buildings $HERE/runs/even $HERE/runs/odd --pool all_120 \
+  --out $HERE/targets_120 > $HERE/study_120.log
+rm -rf $HERE/learned_only  # copies of runs/, not kept
