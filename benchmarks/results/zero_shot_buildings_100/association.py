@@ -32,7 +32,7 @@ from explore_rl.zero_shot import ZeroShotTargets, common_coverage, trial_point
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from study_zero_shot import read_report  # noqa: E402  (benchmarks/: how the zero-shot study reads a report)
 
-FIGURES = ("error", "closures", "travel")
+FIGURES = {"error": "map_error_m", "closures": "closures_per_m", "travel": "travel_m"}  # name -> TrialPoint field
 
 
 def paired_trials(reports: list[Path], policy: str, reference: str) -> dict[str, tuple[dict, dict]]:
@@ -52,9 +52,8 @@ def log_ratios(pairs: dict[str, tuple[dict, dict]], stop_coverage: float) -> dic
     for mine, theirs in pairs.values():
         coverage = common_coverage([mine, theirs], stop_coverage)
         a, b = trial_point(mine, coverage), trial_point(theirs, coverage)
-        out["error"].append(math.log(a.map_error_m / b.map_error_m))
-        out["closures"].append(math.log(a.closures_per_m / b.closures_per_m))
-        out["travel"].append(math.log(a.travel_m / b.travel_m))
+        for key, field in FIGURES.items():
+            out[key].append(math.log(getattr(a, field) / getattr(b, field)))
     return {key: np.array(values) for key, values in out.items()}
 
 
@@ -70,6 +69,8 @@ def rank_correlation(x: np.ndarray, y: np.ndarray, resamples: int, seed: int = 0
         pick = rng.integers(0, len(x), len(x))
         if np.ptp(x[pick]) > 0 and np.ptp(y[pick]) > 0:
             draws.append(spearmanr(x[pick], y[pick]).statistic)
+    if not draws:  # every resample left a figure constant
+        return rho, [float("nan"), float("nan")]
     low, high = np.percentile(draws, percentile_levels(len(x)))
     return rho, [float(low), float(high)]
 
