@@ -111,7 +111,12 @@ class PolicyConfig:
     EM evaluates the decision's action set, ``planning.actions`` (one set for the
     exploration graph, EM and the reward). ``learned`` reads its actor from ``checkpoint``:
     an actor file (``explore-rl-export``) or a training checkpoint; the default is the
-    shipped policy (explore_rl/planning/learned.py)."""
+    shipped policy (explore_rl/planning/learned.py).
+
+    ``revisit_bias`` (learned only): added to each frontier's logit per keyframe its path
+    revisits (the predicted loop closures) before the greedy choice -- a decision-time prior
+    towards closing loops, not learned; 0 is the actor alone."""
 
     name: str = "nearest"
     checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"
+    revisit_bias: float = 0.0

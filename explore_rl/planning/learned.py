@@ -295,6 +295,16 @@ def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:
                      torch.from_numpy(encoded.node_mask)[None], entries)[0]
 
 
+def revisit_counts(graph: ExplorationGraph, encoded: EncodedGraph, actions: list[Action]) -> np.ndarray:
+    """``(N,)``: keyframes the path of each encoded frontier row revisits (its predicted loop
+    closures, the ``revisits`` node feature of the extended set); 0 on pose and padding rows."""
+    per_candidate = {action.candidate: len(action.prediction.revisits) for action in actions}
+    counts = np.zeros(len(encoded.action_mask), dtype=np.float32)
+    for row in np.flatnonzero(encoded.action_mask):
+        counts[row] = per_candidate[int(graph.candidate[encoded.nodes[row]])]
+    return counts
+
+
 def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
     """Row of the most probable action of ``encoded`` (:func:`greedy_row`)."""
     return greedy_row(actor_logits(actor, encoded), torch.from_numpy(encoded.action_mask))
@@ -426,10 +436,19 @@ class LearnedPolicy:
         encoded = encode(graph, self.max_nodes, compact=not self.reference)
         after_graph = time.perf_counter()
         logits = actor_logits(self.actor, encoded)
-        row = greedy_row(logits, torch.from_numpy(encoded.action_mask))
+        row = greedy_row(self.biased(logits, graph, encoded, actions), torch.from_numpy(encoded.action_mask))
         end = time.perf_counter()
         self.last_graph, self.last_encoded, self.last_logits = graph, encoded, logits
         self.last_choice = int(graph.candidate[encoded.nodes[row]])
         self.last_ms = {"actions": 1e3 * (after_actions - start), "graph": 1e3 * (after_graph - after_actions),
                         "forward": 1e3 * (end - after_graph)}
         return self.last_choice
+
+    def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
+               actions: list[Action]) -> torch.Tensor:
+        """The logits the greedy choice reads: the actor's, plus ``policy.revisit_bias`` per
+        keyframe a frontier's path revisits (a prior towards closing loops; 0: the actor's)."""
+        bias = float(self.config.revisit_bias)
+        if bias == 0:
+            return logits
+        return logits + bias * torch.from_numpy(revisit_counts(graph, encoded, actions))

@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from explore_rl.config import load_config
+from explore_rl.graph.features import feature_names
 from explore_rl.planning.em import make_decision_context, pose_covariances
 from explore_rl.planning.learned import (
     Equivalence,
@@ -24,6 +25,7 @@ from explore_rl.planning.learned import (
     pairs_in_range,
     pairs_in_range_reference,
     pose_marginals,
+    revisit_counts,
     visible_pairs_of,
 )
 from explore_rl.planning.policies import PolicyConfig, make_policy
@@ -116,6 +118,37 @@ def test_extended_features_are_the_environments_too(tmp_path):
         assert graph.features.shape[1] == 10
         np.testing.assert_allclose(graph.features, decision.graph.features, rtol=1e-9, atol=1e-12)
         assert policy.choose(state) == env_choice
+
+
+def test_the_revisit_prior_adds_the_revisited_keyframes_to_the_logits(tmp_path):
+    """``policy.revisit_bias``: each frontier row's count is the ``revisits`` feature of the
+    extended graph (pose rows 0); with 0 the choice is the actor's greedy one; with a bias far
+    above the logits' spread it is a frontier revisiting the most keyframes; the actor's own
+    logits are kept either way. A negative bias is refused in one line naming the key."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+    alone = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path)), config.planning, graph=config.graph)
+    biased = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), revisit_bias=1e6), config.planning,
+                           graph=config.graph)
+    revisit_column = feature_names("extended").index("revisits")
+    informative = 0  # decisions whose frontiers revisit different numbers of keyframes
+    for decision, env_choice in env_decisions(config, learner, steps=6):
+        state = decision.state
+        assert alone.choose(state) == env_choice
+        graph, encoded = alone.last_graph, alone.last_encoded
+        counts = revisit_counts(graph, encoded, decision.actions)
+        rows = np.flatnonzero(encoded.action_mask)
+        np.testing.assert_array_equal(counts[rows], graph.features[encoded.nodes[rows], revisit_column])
+        assert not counts[~encoded.action_mask].any()
+        choice = biased.choose(state)
+        np.testing.assert_array_equal(biased.last_logits, alone.last_logits)
+        chosen_row = rows[graph.candidate[encoded.nodes[rows]] == choice][0]
+        assert counts[chosen_row] == counts[rows].max()
+        informative += counts[rows].max() > counts[rows].min()
+    assert informative > 0
+    with pytest.raises(ValueError, match="policy.revisit_bias") as error:
+        load_config([*FAST, "policy.revisit_bias=-0.5"])
+    assert "\n" not in str(error.value)
 
 
 def test_the_fast_path_decides_as_the_reference_on_real_states(tmp_path):

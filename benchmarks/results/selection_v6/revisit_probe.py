@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+from dataclasses import dataclass, field
 
 import torch
 
@@ -44,32 +45,59 @@ def greedy_learner(path: str) -> Learner:
     return learner
 
 
-def choices(path: str, dataset: DecisionDataset) -> dict[str, float]:
+@dataclass
+class ScoredDecisions:
+    """Per chunk of padded decisions: the actor's logits (-inf off the frontier rows), the rows'
+    ``revisits`` and ``path_length``, and EM's best row (its largest reward)."""
+
+    logits: list[torch.Tensor] = field(default_factory=list)
+    revisits: list[torch.Tensor] = field(default_factory=list)
+    path_m: list[torch.Tensor] = field(default_factory=list)
+    best: list[torch.Tensor] = field(default_factory=list)
+
+
+def scored_decisions(path: str, dataset: DecisionDataset) -> ScoredDecisions:
+    """The actor of ``path`` (its own model and node features) on every decision of ``dataset``."""
     learner = greedy_learner(path)
     names = list(feature_names(learner.config.graph.features))
     if "revisits" not in names or "path_length" not in names:
         raise SystemExit(f"{path}: the actor reads graph.features={learner.config.graph.features}; the probe reads "
                          "the revisits and path_length its features hold: give an actor of graph.features=extended")
     columns = dataset.columns_for(names)
-    revisits, length = names.index("revisits"), names.index("path_length")
-    sums = {"policy_revisits": 0.0, "em_revisits": 0.0, "policy_path_m": 0.0, "em_path_m": 0.0,
-            "policy_any_revisit": 0.0, "em_any_revisit": 0.0, "same_choice": 0.0}
-    count = 0
+    scored = ScoredDecisions()
     with torch.no_grad():
         for chunk in torch.arange(len(dataset)).split(128):
             batch = padded_batch(dataset.rows(chunk), columns)
             mask, rewards = batch["action_mask"], batch[ACTION_REWARDS]
-            mine = learner.actor.get_dist(batch).probs.masked_fill(~mask, -1.0).argmax(-1)
-            best = rewards.masked_fill(~mask, -torch.inf).argmax(-1)
-            rows = torch.arange(len(chunk))
-            x = batch["x"]
-            for who, pick in (("policy", mine), ("em", best)):
-                sums[f"{who}_revisits"] += float(x[rows, pick, revisits].sum())
-                sums[f"{who}_path_m"] += float(x[rows, pick, length].sum())
-                sums[f"{who}_any_revisit"] += float((x[rows, pick, revisits] > 0).sum())
-            sums["same_choice"] += float((mine == best).sum())
-            count += len(chunk)
+            scored.logits.append(learner.actor.get_dist(batch).logits.masked_fill(~mask, -torch.inf))
+            scored.revisits.append(batch["x"][..., names.index("revisits")])
+            scored.path_m.append(batch["x"][..., names.index("path_length")])
+            scored.best.append(rewards.masked_fill(~mask, -torch.inf).argmax(-1))
+    return scored
+
+
+def figures(scored: ScoredDecisions, revisit_bias: float = 0.0) -> dict[str, float]:
+    """Mean revisits, path length and any-revisit share of the greedy choice (the actor's logits plus
+    ``revisit_bias`` per revisited keyframe, as ``policy.revisit_bias``) and of EM's best, and how often
+    they are the same frontier."""
+    sums = {"policy_revisits": 0.0, "em_revisits": 0.0, "policy_path_m": 0.0, "em_path_m": 0.0,
+            "policy_any_revisit": 0.0, "em_any_revisit": 0.0, "same_choice": 0.0}
+    count = 0
+    for logits, revisits, path_m, best in zip(scored.logits, scored.revisits, scored.path_m, scored.best):
+        mine = (logits + revisit_bias * revisits).argmax(-1)
+        rows = torch.arange(len(best))
+        for who, pick in (("policy", mine), ("em", best)):
+            sums[f"{who}_revisits"] += float(revisits[rows, pick].sum())
+            sums[f"{who}_path_m"] += float(path_m[rows, pick].sum())
+            sums[f"{who}_any_revisit"] += float((revisits[rows, pick] > 0).sum())
+        sums["same_choice"] += float((mine == best).sum())
+        count += len(best)
     return {key: round(value / count, 3) for key, value in sums.items()} | {"decisions": count}
+
+
+def choices(path: str, dataset: DecisionDataset) -> dict[str, float]:
+    """:func:`figures` of the actor of ``path`` alone."""
+    return figures(scored_decisions(path, dataset))
 
 
 def parse_actor(text: str) -> tuple[str, str]:
