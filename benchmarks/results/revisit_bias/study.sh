@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# plan.md: keep the trials of val.sh and test.sh in runs/, then the figures (study_zero_shot.py, pooled over every
+# building finished): validation (the rule) and the held-out intervention, each against EM and against the
+# shipped actor alone (--reference-policy learned).
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+PY=${PY:-/work/main/.venv/bin/python}
+STUDY=$HERE/../../study_zero_shot.py
+ZS=$HERE/../zero_shot_buildings_100/runs  # EM's and the shipped actor's trials of the held-out buildings
+keep() {  # keep SRC DST [PARITY]: each building's trials and summary, from a sweep folder (PARITY: even/odd seeds)
+  [ -d $1 ] || return 0
+  for d in $1/*building_*/; do
+    [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
+    seed=${d%/}; seed=${seed##*_}
+    case ${3:-all} in even) [ $((seed % 2)) -eq 0 ] || continue;; odd) [ $((seed % 2)) -eq 1 ] || continue;; esac
+    mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
+  done
+}
+# validation: a building counts once both runs of it finished
+for d in /work/runs/rb_val/biased/building_*/; do
+  b=$(basename $d)
+  [ -e $d/trials.jsonl ] && [ -e /work/runs/rb_val/pair/$b/trials.jsonl ] || continue
+  mkdir -p $HERE/runs/val_pair/$b $HERE/runs/val_biased/$b
+  cp /work/runs/rb_val/pair/$b/{trials.jsonl,summary.md} $HERE/runs/val_pair/$b/
+  cp $d/{trials.jsonl,summary.md} $HERE/runs/val_biased/$b/
+done
+keep /work/runs/rb_test $HERE/runs/test/even even
+keep /work/runs/rb_test $HERE/runs/test/odd odd
+V=$HERE/runs
+$PY $STUDY $V/val_pair --pool val_shipped --out $HERE/targets_val_shipped > $HERE/study_val_shipped.log
+$PY $STUDY $V/val_biased --reference $V/val_pair --pool val_biased --out $HERE/targets_val_biased \
+  > $HERE/study_val_biased.log
+$PY $STUDY $V/val_biased --reference $V/val_pair --reference-policy learned --pool val_direct \
+  --out $HERE/targets_val_direct > $HERE/direct_val.log
+$PY $STUDY $V/test/even $V/test/odd --reference $ZS/even $ZS/odd --pool test_biased --out $HERE/targets_test \
+  > $HERE/study_test.log
+$PY $STUDY $V/test/even $V/test/odd --reference $ZS/even $ZS/odd --reference-policy learned --pool test_direct \
+  --out $HERE/targets_test_direct > $HERE/direct_test.log
