@@ -24,6 +24,12 @@ for d in /work/runs/rb_val/biased/building_*/; do
   cp /work/runs/rb_val/pair/$b/{trials.jsonl,summary.md} $HERE/runs/val_pair/$b/
   cp $d/{trials.jsonl,summary.md} $HERE/runs/val_biased/$b/
 done
+# the exploratory dose-response (plan.md addendum), where it ran: the buildings with the pair finished too
+for d in /work/runs/rb_val/dose/building_*/; do
+  b=$(basename $d)
+  [ -e $d/trials.jsonl ] && [ -e /work/runs/rb_val/pair/$b/trials.jsonl ] || continue
+  mkdir -p $HERE/runs/val_dose/$b && cp $d/{trials.jsonl,summary.md} $HERE/runs/val_dose/$b/
+done
 keep /work/runs/rb_test $HERE/runs/test/even even
 keep /work/runs/rb_test $HERE/runs/test/odd odd
 V=$HERE/runs
@@ -36,3 +42,8 @@ $PY $STUDY $V/test/even $V/test/odd --reference $ZS/even $ZS/odd --pool test_bia
   > $HERE/study_test.log
 $PY $STUDY $V/test/even $V/test/odd --reference $ZS/even $ZS/odd --reference-policy learned --pool test_direct \
   --out $HERE/targets_test_direct > $HERE/direct_test.log
+if [ -d $V/val_dose ]; then
+  $PY $STUDY $V/val_dose --reference $V/val_pair --pool val_dose --out $HERE/targets_val_dose > $HERE/study_val_dose.log
+  $PY $STUDY $V/val_dose --reference $V/val_pair --reference-policy learned --pool val_dose_direct \
+    --out $HERE/targets_val_dose_direct > $HERE/direct_val_dose.log
+fi
