@@ -30,6 +30,7 @@ for d in /work/runs/rb_val/dose/building_*/; do
   [ -e $d/trials.jsonl ] && [ -e /work/runs/rb_val/pair/$b/trials.jsonl ] || continue
   mkdir -p $HERE/runs/val_dose/$b && cp $d/{trials.jsonl,summary.md} $HERE/runs/val_dose/$b/
 done
+for s in even odd; do keep /work/runs/rb_dose_test/$s $HERE/runs/dose_test/$s; done
 keep /work/runs/rb_test $HERE/runs/test/even even
 keep /work/runs/rb_test $HERE/runs/test/odd odd
 V=$HERE/runs
@@ -46,4 +47,10 @@ if [ -d $V/val_dose ]; then
   $PY $STUDY $V/val_dose --reference $V/val_pair --pool val_dose --out $HERE/targets_val_dose > $HERE/study_val_dose.log
   $PY $STUDY $V/val_dose --reference $V/val_pair --reference-policy learned --pool val_dose_direct \
     --out $HERE/targets_val_dose_direct > $HERE/direct_val_dose.log
+fi
+if [ -d $V/dose_test ]; then  # the held-out dose-response (second addendum): against EM, and the actor alone
+  $PY $STUDY $V/dose_test/even $V/dose_test/odd --reference $ZS/even $ZS/odd --pool dose_test \
+    --out $HERE/targets_dose_test > $HERE/study_dose_test.log
+  $PY $STUDY $V/dose_test/even $V/dose_test/odd --reference $ZS/even $ZS/odd --reference-policy learned \
+    --pool dose_test_direct --out $HERE/targets_dose_test_direct > $HERE/direct_dose_test.log
 fi
