@@ -58,6 +58,7 @@ log = logging.getLogger(__name__)
 
 ESTIMATOR_TYPES = {"gae": ValueEstimators.GAE, "td_lambda": ValueEstimators.TDLambda,
                    "td0": ValueEstimators.TD0}
+STAKES_FLOOR = 1e-6  # em_choice_stakes: a minibatch whose decisions all have ~0 stakes teaches nothing
 BEST_WINDOW = 20  # finished episodes averaged for the "best" checkpoint
 MAX_COLLECTOR_RESTARTS = 5  # per run: more means something is broken, not unlucky
 
@@ -228,21 +229,39 @@ class Learner:
         ``algo.distill_target``: ``expected_reward`` is minus the policy's expected
         Algorithm 1 reward over *every* frontier node (the env evaluates them all): a
         one-step, full-information objective with no sampling noise and no credit for
-        EM's exact tie-breaks; ``em_choice`` is the cross-entropy towards EM's choice."""
+        EM's exact tie-breaks; ``em_choice`` is the cross-entropy towards EM's choice;
+        ``em_choice_stakes`` is that cross-entropy with each decision weighted by its stakes
+        (:func:`decision_stakes`), so that the decisions where EM's pick is worth much more
+        than a typical frontier count most."""
         labels = batch[EM_ACTION]
         known = labels >= 0
         if self.config.algo.distill_coef == 0 or not known.any():
             return torch.zeros(())
         dist = self.actor.get_dist(batch)
-        if self.config.algo.distill_target == "expected_reward":
+        target = self.config.algo.distill_target
+        if target == "expected_reward":
             expected = (dist.probs * batch[ACTION_REWARDS]).sum(-1)
             return -expected[known].mean()
-        return -dist.log_prob(labels.clamp_min(0))[known].mean()
+        log_prob = dist.log_prob(labels.clamp_min(0))[known]
+        if target == "em_choice_stakes":
+            weights = decision_stakes(batch[ACTION_REWARDS], batch["action_mask"])[known]
+            return -(weights * log_prob).sum() / weights.sum().clamp_min(STAKES_FLOOR)
+        return -log_prob.mean()
 
     def skip(self, reason: str) -> None:
         self.skipped_updates += 1
         log.warning("update skipped (%s); %d skipped so far", reason, self.skipped_updates)
         return None
+
+
+def decision_stakes(rewards: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Per decision, EM's best reward minus the mean reward of its frontier rows
+    (``rewards``, ``mask``: ``(..., N)``): what picking a typical frontier instead of EM's
+    would lose. 0 for a decision with one frontier (nothing to choose)."""
+    count = mask.sum(-1).clamp_min(1)
+    mean = (rewards * mask).sum(-1) / count
+    best = rewards.masked_fill(~mask, -torch.inf).amax(-1)
+    return torch.where(mask.any(-1), best - mean, torch.zeros_like(mean))
 
 
 # ---------------------------------------------------------------------- collectors

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Optional
 
 ESTIMATORS = ("gae", "td_lambda", "td0")
-DISTILL_TARGETS = ("expected_reward", "em_choice")
+DISTILL_TARGETS = ("expected_reward", "em_choice", "em_choice_stakes")
 # options renamed so that nobody mistakes distillation for A2C: old name -> new name
 RENAMED = {
     "imitation_coef": "distill_coef",
@@ -30,7 +30,9 @@ class AlgoConfig:
     Distillation is not A2C: with ``distill_target=expected_reward`` it maximises the
     policy's expected Algorithm 1 reward over every frontier node, using EM's scores of
     the actions not taken (a full-information, one-step objective; the policy gradient
-    only when gamma = 0); ``em_choice`` is the cross-entropy towards EM's pick. DAgger
+    only when gamma = 0); ``em_choice`` is the cross-entropy towards EM's pick;
+    ``em_choice_stakes`` weights that cross-entropy by each decision's stakes (EM's best
+    reward minus the mean over the frontiers: the decisions where the choice matters). DAgger
     replay (``dagger_steps``) adds supervised steps of the distillation loss on decisions
     kept from the policy's own states. ``distill_coef=0`` is the paper's plain A2C;
     ``a2c_coef=0`` is distillation alone.
@@ -44,7 +46,7 @@ class AlgoConfig:
     value_coef: float = 0.5  # beta: weight of the critic loss
     entropy_coef: float = 0.01  # eta: weight of the entropy bonus
     distill_coef: float = 0.0  # weight of the distillation term on the collected decisions
-    distill_target: str = "expected_reward"  # expected_reward | em_choice
+    distill_target: str = "expected_reward"  # expected_reward | em_choice | em_choice_stakes
     # DAgger: supervised distillation steps per update on decisions replayed from a buffer of
     # the last ``dagger_buffer`` EM-labelled ones (explore_rl/trainer/imitation.py; 0 = none)
     dagger_steps: int = 0

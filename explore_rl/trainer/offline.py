@@ -1,7 +1,8 @@
 """Train the actor offline on a dataset of EM-scored decisions (explore_rl/trainer/dataset.py).
 
-The objective is distillation of EM's per-frontier evaluation, ``expected_reward``: minus
-the policy's expected Algorithm 1 reward over every frontier node -- the same loss as
+The objective is distillation of EM's per-frontier evaluation, by default ``expected_reward``:
+minus the policy's expected Algorithm 1 reward over every frontier node (or the configured
+``algo.distill_target``: ``em_choice``, ``em_choice_stakes``) -- the same loss as
 ``Learner.distill_loss`` (it *is* that method, on a learner whose distillation weight is 1),
 in minibatches of ``algo.dagger_batch`` drawn uniformly from the chosen decisions,
 Adam at ``algo.lr``, gradient clipping at ``algo.max_grad_norm``, and dropout on (as in
@@ -52,9 +53,9 @@ class OfflineResult:
 
 
 def offline_config(config: Config) -> Config:
-    """``config`` with the distillation objective on: weight 1, target ``expected_reward``."""
-    return dataclasses.replace(config, algo=dataclasses.replace(
-        config.algo, distill_coef=1.0, distill_target="expected_reward"))
+    """``config`` with the distillation objective on: weight 1, the configured
+    ``algo.distill_target`` (``expected_reward`` unless set)."""
+    return dataclasses.replace(config, algo=dataclasses.replace(config.algo, distill_coef=1.0))
 
 
 def check_index(dataset: DecisionDataset, index: torch.Tensor | None) -> torch.Tensor:
@@ -129,7 +130,7 @@ def save_offline_actor(learner: Learner, path: str | Path, meta: dict | None = N
     actor_file = ActorFile(model=config.model, weights=actor_weights(learner),
                            features=list(feature_names(config.graph.features)),
                            graph_max_nodes=config.graph.max_nodes,
-                           meta={"kind": "offline distillation (expected_reward)", "scene": config.scene.name,
+                           meta={"kind": f"offline distillation ({config.algo.distill_target})", "scene": config.scene.name,
                                  "train_layouts": config.env.train_layouts, **(meta or {})})
     return save_actor_file(path, actor_file)
 

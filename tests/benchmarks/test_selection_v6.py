@@ -159,7 +159,8 @@ def test_the_scratch_curve_places_each_snapshot_after_its_stage(tmp_path):
 
 def revisit_dataset(path, count: int = 24):
     """A small DecisionDataset of made-up decisions with the extended node features (chain graphs, random
-    features and rewards, frontier rows masked in), for revisit_probe.py; returns it and EM's best rows."""
+    features and rewards, frontier rows masked in, layouts 0-7 in turn), for revisit_probe.py; returns it and
+    EM's best rows."""
     import torch
 
     from explore_rl.config import load_config
@@ -180,7 +181,8 @@ def revisit_dataset(path, count: int = 24):
         x[:, names.index("revisits")] = torch.randint(0, 4, (n,)).float()
         em_action = rewards.masked_fill(~mask, -torch.inf).argmax()
         decisions.append(TensorDict({"x": x, "edges": edges, "weights": torch.ones(n - 1), "action_mask": mask,
-                                     "action_rewards": rewards, "em_action": em_action}, batch_size=[]))
+                                     "action_rewards": rewards, "em_action": em_action,
+                                     "layout": torch.tensor(index % 8)}, batch_size=[]))
         best.append(int(em_action))
     dataset = DecisionDataset(path, schema_for(load_config(["graph.features=extended"]), capacity=count))
     dataset.append(decisions, scene="building")

@@ -11,9 +11,9 @@ import torch
 
 from explore_rl.config import load_config
 from explore_rl.envs import make_env
-from explore_rl.envs.keys import NEAREST_ACTION
+from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, NEAREST_ACTION
 from explore_rl.models.actor_critic import Dropout
-from explore_rl.trainer.a2c import Learner, TrainingRun, make_collector, train
+from explore_rl.trainer.a2c import Learner, TrainingRun, decision_stakes, make_collector, train
 from explore_rl.models.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
 
 # short, cheap episodes: a few frontiers per decision, a small travel budget
@@ -56,6 +56,37 @@ def test_the_losses_decrease_on_a_fixed_batch(batch):
         history.append((critic.item(), distill.item()))
     assert history[-1][0] < 0.2 * history[0][0]
     assert history[-1][1] < 0.2 * history[0][1]
+
+
+def test_the_stakes_are_the_best_reward_minus_the_mean_over_the_frontiers():
+    rewards = torch.tensor([[1.0, 3.0, 5.0, 9.0], [2.0, 7.0, 0.0, 0.0], [4.0, 0.0, 0.0, 0.0]])
+    mask = torch.tensor([[True, True, True, False], [True, True, False, False], [True, False, False, False]])
+    expected = [5.0 - (1 + 3 + 5) / 3, 7.0 - 4.5, 0.0]  # the masked 9 is not a frontier; one frontier: 0
+    assert decision_stakes(rewards, mask).tolist() == pytest.approx(expected)
+    assert decision_stakes(torch.zeros(1, 3), torch.zeros(1, 3, dtype=torch.bool)).tolist() == [0.0]
+
+
+def test_the_stakes_target_is_the_stakes_weighted_mean_of_the_em_choice_losses(batch):
+    """``em_choice_stakes`` on a real batch equals the stakes-weighted mean, computed here one
+    decision at a time, of ``em_choice``'s cross-entropy; decisions EM did not label are left out."""
+    torch.manual_seed(0)
+    config = config_for("algo.distill_coef=1.0", "algo.distill_target=em_choice_stakes", "model.dropout=0.0")
+    learner = Learner(config, make_env(config).action_spec)
+    plain = Learner(config_for("algo.distill_coef=1.0", "algo.distill_target=em_choice", "model.dropout=0.0"),
+                    make_env(config).action_spec)
+    plain.actor.load_state_dict(learner.actor.state_dict())
+    data = batch.clone()
+    data[EM_ACTION][0, 0] = -1  # EM failed here: no label
+    weighted, total, every = 0.0, 0.0, []
+    for step in range(1, data.shape[1]):
+        one = data[:, step:step + 1]
+        rewards = one[ACTION_REWARDS][0, 0][one["action_mask"][0, 0]]
+        stakes = float(rewards.max() - rewards.mean())
+        weighted += stakes * plain.distill_loss(one).item()
+        total += stakes
+        every.append(stakes)
+    assert total > 0 and max(every) > 1.1 * min(every)  # unequal weights: not the plain mean
+    assert learner.distill_loss(data).item() == pytest.approx(weighted / total, rel=1e-5)
 
 
 def test_an_update_changes_the_weights_and_reports_finite_figures(batch):

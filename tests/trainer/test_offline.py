@@ -52,6 +52,23 @@ def test_offline_training_lowers_the_distillation_loss_on_a_fixed_dataset(datase
     assert after < before - 0.1 * abs(before) and -after <= best + 1e-6
 
 
+@pytest.mark.parametrize("target", ["em_choice", "em_choice_stakes"])
+def test_offline_training_distills_the_configured_target(dataset, tmp_path, target):
+    """``algo.distill_target`` is kept offline (``expected_reward`` only by default): training on EM's
+    choice lowers the cross-entropy to it, and the actor file names the target."""
+    assert offline_config(config_for()).algo.distill_target == "expected_reward"
+    config = config_for("algo.lr=1e-2", "algo.dagger_batch=4", "model.dropout=0.0", f"algo.distill_target={target}")
+    assert offline_config(config).algo.distill_target == target
+    everything = torch.arange(len(dataset))
+    torch.manual_seed(0)
+    before = distill_loss_of(Learner(offline_config(config)), dataset, everything, list(range(4)))
+    torch.manual_seed(0)
+    learner, _ = train_offline(config, dataset, steps=40)
+    assert distill_loss_of(learner, dataset, everything, list(range(4))) < 0.8 * before
+    path = save_offline_actor(learner, tmp_path / "actor.pt")
+    assert load_actor(path)[1].meta["kind"] == f"offline distillation ({target})"
+
+
 def test_an_offline_actor_file_loads_and_scores_like_the_learner(dataset, tmp_path):
     torch.manual_seed(0)
     learner, _ = train_offline(config_for(), dataset, steps=2)

@@ -1,0 +1,158 @@
+"""Offline probe of two distillation targets on training-distribution states (plan.md, step 1).
+
+From one actor, ``--steps`` Adam steps of each target (``em_choice``, ``em_choice_stakes``) on a DAgger dataset's
+training split; every ``--every`` steps, on the probe split (layouts with ``layout % 4 == 3``, never trained on):
+the offline gap closed (EM reward of the greedy pick above the frontiers' mean, over EM's best above it, pooled),
+agreement with EM's best, and the pick's mean revisits; intervals by a bootstrap over layouts, the targets'
+difference paired. Writes each target's final actor file to ``--out``. One JSON line per row; the last line
+is the summary.
+
+    python benchmarks/results/stakes_distill/probe.py [--dataset /work/runs/data_scratch] \
+        [--actor policies/buildings_sparse_em_choice/actor.pt] [--steps 2000] [--every 500] [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from explore_rl.config import load_config
+from explore_rl.envs.keys import ACTION_REWARDS
+from explore_rl.graph.features import feature_names
+from explore_rl.models.actor_file import read_actor_file
+from explore_rl.models.checkpoint import CheckpointError
+from explore_rl.trainer.a2c import Learner
+from explore_rl.trainer.dataset import DecisionDataset, padded_batch
+from explore_rl.trainer.offline import offline_config, save_offline_actor, train_offline
+
+DATASET = "/work/runs/data_scratch"
+ACTOR = "policies/buildings_sparse_em_choice/actor.pt"
+TARGETS = ("em_choice", "em_choice_stakes")
+PROBE_EVERY = 4  # layouts with layout % 4 == 3 are the probe split
+CHUNK = 128
+BOOTSTRAP = 2000
+
+
+def learner_for(actor: str, target: str, lr: float) -> Learner:
+    """A learner of ``target`` starting from the actor file ``actor`` (its model and node features)."""
+    actor_file = read_actor_file(actor)
+    config = load_config(["scene=building", "slam=model", f"graph.features={actor_file.feature_set}",
+                          f"algo.distill_target={target}", f"algo.lr={lr}"])
+    learner = Learner(dataclasses.replace(offline_config(config), model=actor_file.model))
+    learner.load_initial_actor(actor)
+    return learner
+
+
+def split(dataset: DecisionDataset) -> tuple[torch.Tensor, torch.Tensor]:
+    """Training and probe decisions, by layout (the probe split's layouts are never trained on)."""
+    layouts = dataset.rows()["layout"]
+    probe = layouts % PROBE_EVERY == PROBE_EVERY - 1
+    return torch.nonzero(~probe).flatten(), torch.nonzero(probe).flatten()
+
+
+def per_decision(learner: Learner, dataset: DecisionDataset, index: torch.Tensor, columns: list[int]) -> dict:
+    """Per decision of ``index`` (dropout off): the greedy pick's EM reward above the frontiers' mean, EM's
+    best above it, whether the pick is EM's best, and the pick's revisits."""
+    names = list(feature_names(learner.config.graph.features))
+    learner.set_training(False)
+    out = {"gain": [], "stakes": [], "same": [], "revisits": []}
+    with torch.no_grad():
+        for chunk in index.split(CHUNK):
+            batch = padded_batch(dataset.rows(chunk), columns)
+            mask, rewards = batch["action_mask"], batch[ACTION_REWARDS]
+            pick = learner.actor.get_dist(batch).logits.masked_fill(~mask, -torch.inf).argmax(-1)
+            best = rewards.masked_fill(~mask, -torch.inf).argmax(-1)
+            mean = (rewards * mask).sum(-1) / mask.sum(-1).clamp_min(1)
+            rows = torch.arange(len(chunk))
+            out["gain"].append(rewards[rows, pick] - mean)
+            out["stakes"].append(rewards[rows, best] - mean)
+            out["same"].append((pick == best).float())
+            out["revisits"].append(batch["x"][..., names.index("revisits")][rows, pick])
+    return {key: torch.cat(value).numpy() for key, value in out.items()}
+
+
+def gap_closed(scores: dict, rows: np.ndarray) -> float:
+    """Pooled offline gap closed of the decisions ``rows``."""
+    return float(scores["gain"][rows].sum() / max(scores["stakes"][rows].sum(), 1e-12))
+
+
+def clusters(layouts: np.ndarray) -> list[np.ndarray]:
+    """The decision rows of each layout (the bootstrap's unit)."""
+    return [np.flatnonzero(layouts == layout) for layout in np.unique(layouts)]
+
+
+def bootstrap(statistic, groups: list[np.ndarray], seed: int = 0) -> list[float]:
+    """95 % percentile interval of ``statistic(rows)`` over layouts drawn with replacement."""
+    rng = np.random.default_rng(seed)
+    values = [statistic(np.concatenate([groups[i] for i in rng.integers(len(groups), size=len(groups))]))
+              for _ in range(BOOTSTRAP)]
+    return [round(float(v), 4) for v in np.percentile(values, [2.5, 97.5])]
+
+
+def figures(scores: dict, groups: list[np.ndarray]) -> dict:
+    rows = np.concatenate(groups)
+    return {"gap_closed": round(gap_closed(scores, rows), 4),
+            "gap_closed_ci": bootstrap(lambda r: gap_closed(scores, r), groups),
+            "same_choice": round(float(scores["same"].mean()), 4),
+            "revisits": round(float(scores["revisits"].mean()), 4)}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dataset", default=DATASET, help="a DecisionDataset folder (EM's rewards of every frontier)")
+    parser.add_argument("--actor", default=ACTOR, help="the actor file both targets start from")
+    parser.add_argument("--steps", type=int, default=2000, help="Adam steps per target (>= 1)")
+    parser.add_argument("--every", type=int, default=500, help="steps between probe measurements (>= 1)")
+    parser.add_argument("--lr", type=float, default=3e-4, help="Adam step size (> 0)")
+    parser.add_argument("--seed", type=int, default=0, help="minibatch order")
+    parser.add_argument("--out", default="runs/stakes_distill", help="folder of the final actor files")
+    args = parser.parse_args(argv)
+    if args.steps < 1 or args.every < 1 or not args.lr > 0:
+        parser.error(f"--steps {args.steps} --every {args.every} --lr {args.lr}: give steps, every >= 1, lr > 0")
+    try:  # every input checked before anything trains
+        dataset = DecisionDataset(args.dataset)
+    except ValueError as error:
+        parser.error(f"--dataset {error}")
+    try:
+        read_actor_file(args.actor)
+    except (ValueError, CheckpointError) as error:
+        parser.error(f"--actor {error}")
+    train_index, probe_index = split(dataset)
+    if len(train_index) == 0 or len(probe_index) == 0:
+        parser.error(f"--dataset {args.dataset}: needs layouts on both sides of the split (layout % 4 == 3 or not)")
+    groups = clusters(dataset.rows(probe_index)["layout"].numpy())
+    summary, finals = {"train_decisions": len(train_index), "probe_decisions": len(probe_index),
+                       "probe_layouts": len(groups), "steps": args.steps, "lr": args.lr}, {}
+    for target in TARGETS:
+        torch.manual_seed(args.seed)
+        learner = learner_for(args.actor, target, args.lr)
+        columns = dataset.columns_for(feature_names(learner.config.graph.features))
+        scores = per_decision(learner, dataset, probe_index, columns)
+        summary.setdefault("start", figures(scores, groups))
+        print(json.dumps({"target": target, "steps": 0, **summary["start"]}), flush=True)
+        done = 0
+        while done < args.steps:
+            chunk = min(args.every, args.steps - done)
+            train_offline(learner.config, dataset, chunk, index=train_index, learner=learner)
+            done += chunk
+            scores = per_decision(learner, dataset, probe_index, columns)
+            print(json.dumps({"target": target, "steps": done, **figures(scores, groups)}), flush=True)
+        finals[target] = scores
+        summary[target] = figures(scores, groups)
+        path = save_offline_actor(learner, Path(args.out) / f"{target}.pt",
+                                  {"dataset": args.dataset, "from": args.actor, "steps": args.steps})
+        summary[target]["actor"] = str(path)
+    first, second = (finals[target] for target in TARGETS)
+    difference = lambda rows: gap_closed(second, rows) - gap_closed(first, rows)  # noqa: E731
+    summary["difference"] = {"gap_closed": round(difference(np.concatenate(groups)), 4),
+                             "gap_closed_ci": bootstrap(difference, groups)}
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()
