@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# plan.md: keep run.sh's trials (SET=val, and SET=test if it ran) in runs/, then the figures (study_zero_shot.py, pooled
+# over every building finished): against EM, and against the shipped actor alone (--reference-policy learned).
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+PY=${PY:-/work/main/.venv/bin/python}
+STUDY=$HERE/../../study_zero_shot.py
+PAIR=$HERE/../revisit_bias/runs/val_pair  # EM's and the shipped actor's validation trials (same config)
+ZS=$HERE/../zero_shot_buildings_100/runs  # EM's and the shipped actor's held-out trials
+keep() {  # keep SRC DST: each finished building's trials and summary
+  [ -d $1 ] || return 0
+  for d in $1/building_*/; do
+    [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
+    mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
+  done
+}
+keep /work/runs/sd_val $HERE/runs/val
+$PY $STUDY $HERE/runs/val --reference $PAIR --pool val --out $HERE/targets_val > $HERE/study_val.log
+$PY $STUDY $HERE/runs/val --reference $PAIR --reference-policy learned --pool val_direct \
+  --out $HERE/targets_val_direct > $HERE/direct_val.log
+if [ -d /work/runs/sd_test ]; then
+  keep /work/runs/sd_test $HERE/runs/test
+  $PY $STUDY $HERE/runs/test --reference $ZS/even $ZS/odd --pool test --out $HERE/targets_test > $HERE/study_test.log
+  $PY $STUDY $HERE/runs/test --reference $ZS/even $ZS/odd --reference-policy learned --pool test_direct \
+    --out $HERE/targets_test_direct > $HERE/direct_test.log
+fi
