@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# plan.md: keep run.sh's trials (SET=val, and SET=test if it ran) in runs/, then the figures (study_zero_shot.py, pooled
+# plan.md: keep run.sh's trials (SET=val; the control arm and SET=test where they ran) in runs/, then the figures (study_zero_shot.py, pooled
 # over every building finished): against EM, and against the shipped actor alone (--reference-policy learned).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -14,10 +14,15 @@ keep() {  # keep SRC DST: each finished building's trials and summary
     mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
   done
 }
-keep /work/runs/sd_val $HERE/runs/val
-$PY $STUDY $HERE/runs/val --reference $PAIR --pool val --out $HERE/targets_val > $HERE/study_val.log
-$PY $STUDY $HERE/runs/val --reference $PAIR --reference-policy learned --pool val_direct \
-  --out $HERE/targets_val_direct > $HERE/direct_val.log
+# the stakes actor (runs/val) and, where it ran, the em_choice control arm (runs/val_control)
+for name in val val_control; do
+  run=/work/runs/sd_val; [ $name = val_control ] && run=/work/runs/sd_control_val
+  [ -d $run ] || continue
+  keep $run $HERE/runs/$name
+  $PY $STUDY $HERE/runs/$name --reference $PAIR --pool $name --out $HERE/targets_$name > $HERE/study_$name.log
+  $PY $STUDY $HERE/runs/$name --reference $PAIR --reference-policy learned --pool ${name}_direct \
+    --out $HERE/targets_${name}_direct > $HERE/direct_$name.log
+done
 if [ -d /work/runs/sd_test ]; then
   keep /work/runs/sd_test $HERE/runs/test
   $PY $STUDY $HERE/runs/test --reference $ZS/even $ZS/odd --pool test --out $HERE/targets_test > $HERE/study_test.log
