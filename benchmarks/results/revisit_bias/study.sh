@@ -48,6 +48,22 @@ if [ -d $V/val_dose ]; then
   $PY $STUDY $V/val_dose --reference $V/val_pair --reference-policy learned --pool val_dose_direct \
     --out $HERE/targets_val_dose_direct > $HERE/direct_val_dose.log
 fi
+for run in /work/runs/rb_sweep_*_val; do  # session 42's validation sweep (sweep.sh): one folder per b
+  [ -d $run ] || continue
+  name=val_sweep_$(basename $run | sed 's/rb_sweep_//; s/_val$//')
+  keep $run $V/$name
+  $PY $STUDY $V/$name --reference $V/val_pair --pool $name --out $HERE/targets_$name > $HERE/study_$name.log
+  $PY $STUDY $V/$name --reference $V/val_pair --reference-policy learned --pool ${name}_direct \
+    --out $HERE/targets_${name}_direct > $HERE/direct_$name.log
+done
+for run in /work/runs/rb_sweep_*_test; do  # and the held-out run of the value it adopts, where it ran
+  [ -d $run ] || continue
+  name=test_sweep_$(basename $run | sed 's/rb_sweep_//; s/_test$//')
+  keep $run $V/$name
+  $PY $STUDY $V/$name --reference $ZS/even $ZS/odd --pool $name --out $HERE/targets_$name > $HERE/study_$name.log
+  $PY $STUDY $V/$name --reference $ZS/even $ZS/odd --reference-policy learned --pool ${name}_direct \
+    --out $HERE/targets_${name}_direct > $HERE/direct_$name.log
+done
 if [ -d $V/dose_test ]; then  # the held-out dose-response (second addendum): against EM, and the actor alone
   $PY $STUDY $V/dose_test/even $V/dose_test/odd --reference $ZS/even $ZS/odd --pool dose_test \
     --out $HERE/targets_dose_test > $HERE/study_dose_test.log
