@@ -48,3 +48,46 @@ def test_calibrate_refuses_bad_arguments_in_one_line(bad):
     result = subprocess.run([sys.executable, str(SCRIPT), *bad], capture_output=True, text=True, cwd=ROOT)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert bad[0] in result.stderr.strip().splitlines()[-1] or bad[1] in result.stderr.strip().splitlines()[-1]
+
+
+DIAL = ROOT / "benchmarks" / "results" / "revisit_bias" / "dial.py"
+
+
+def targets_file(path, travel: float, equal_travel: float):
+    """A targets.json of study_zero_shot.py's shape: a building's row and the pooled row."""
+    def row(scene):
+        figures = {"travel_ratio": travel, "error_ratio": equal_travel + 0.02, "equal_travel_error_ratio": equal_travel,
+                   "closures_ratio": 1.0}
+        return {"scene": scene, "scenes": 30, **figures, **{f"{k}_ci95": [v - 0.1, v + 0.1] for k, v in figures.items()}}
+    path.mkdir(parents=True)
+    (path / "targets.json").write_text(json.dumps({"targets": {}, "entries": [row("b/building_1"), row("all 30 scenes")]}))
+    return path
+
+
+@pytest.mark.parametrize("points, adopted", [
+    ({0: (0.97, 1.23), 0.1: (1.01, 1.24), 0.2: (1.14, 1.09), 0.5: (1.46, 0.94)}, None),  # only 0.1 fits, no gain
+    ({0: (0.97, 1.23), 0.1: (1.01, 1.20), 0.2: (1.08, 1.10), 0.3: (1.09, 1.15)}, 0.2),  # the lowest admissible
+    ({0: (0.97, 1.23), 0.1: (1.01, 1.19)}, None),  # lower, but not by more than the margin
+])
+def test_the_dial_writes_the_pooled_rows_and_applies_the_validation_rule(tmp_path, points, adopted):
+    args = []
+    for bias, (travel, equal) in points.items():
+        args += ["--entry", f"{bias}={targets_file(tmp_path / f'b{bias}', travel, equal)}"]
+    result = subprocess.run([sys.executable, str(DIAL), *args, "--out", str(tmp_path / "out")],
+                            capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    rows, summary = lines[:-1], lines[-1]
+    assert [row["revisit_bias"] for row in rows] == sorted(float(b) for b in points)
+    assert [(row["travel_ratio"], row["equal_travel_error_ratio"]) for row in rows] == [points[b] for b in sorted(points)]
+    assert all(row["travel_ratio_low"] == pytest.approx(row["travel_ratio"] - 0.1) for row in rows)
+    assert summary["adopted_revisit_bias"] == adopted
+    assert (tmp_path / "out" / "dial.csv").read_text().count("\n") == len(points) + 1
+    assert (tmp_path / "out" / "dial.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("bad", [["--entry", "x=targets.json"], ["--entry", "0.1=/nonexistent/targets.json"]])
+def test_the_dial_refuses_bad_entries_in_one_line(bad):
+    result = subprocess.run([sys.executable, str(DIAL), *bad], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode != 0 and "Traceback" not in result.stderr
+    assert "--entry" in result.stderr.strip().splitlines()[-1]
