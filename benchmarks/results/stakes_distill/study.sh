@@ -29,3 +29,7 @@ if [ -d /work/runs/sd_test ]; then
   $PY $STUDY $HERE/runs/test --reference $ZS/even $ZS/odd --reference-policy learned --pool test_direct \
     --out $HERE/targets_test_direct > $HERE/direct_test.log
 fi
+if [ -d $HERE/runs/val_control ]; then  # the stakes actor directly against the em_choice control arm
+  $PY $STUDY $HERE/runs/val --reference $HERE/runs/val_control --reference-policy learned --pool val_vs_control \
+    --out $HERE/targets_val_vs_control > $HERE/direct_val_vs_control.log
+fi
