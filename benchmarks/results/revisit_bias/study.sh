@@ -59,10 +59,12 @@ done
 for run in /work/runs/rb_sweep_*_test; do  # and the held-out run of the value it adopts, where it ran
   [ -d $run ] || continue
   name=test_sweep_$(basename $run | sed 's/rb_sweep_//; s/_test$//')
-  keep $run $V/$name
-  $PY $STUDY $V/$name --reference $ZS/even $ZS/odd --pool $name --out $HERE/targets_$name > $HERE/study_$name.log
-  $PY $STUDY $V/$name --reference $ZS/even $ZS/odd --reference-policy learned --pool ${name}_direct \
-    --out $HERE/targets_${name}_direct > $HERE/direct_$name.log
+  keep $run $V/$name/even even
+  keep $run $V/$name/odd odd
+  $PY $STUDY $V/$name/even $V/$name/odd --reference $ZS/even $ZS/odd --pool $name --out $HERE/targets_$name \
+    > $HERE/study_$name.log
+  $PY $STUDY $V/$name/even $V/$name/odd --reference $ZS/even $ZS/odd --reference-policy learned \
+    --pool ${name}_direct --out $HERE/targets_${name}_direct > $HERE/direct_$name.log
 done
 if [ -d $V/dose_test ]; then  # the held-out dose-response (second addendum): against EM, and the actor alone
   $PY $STUDY $V/dose_test/even $V/dose_test/odd --reference $ZS/even $ZS/odd --pool dose_test \
