@@ -34,11 +34,12 @@ ACTORS = {"default": "/work/main/policies/buildings_sparse_distill/actor.pt",
           "dagger_wide": "/work/runs/dagger_wide/checkpoints/last.pt"}
 
 
-def greedy_learner(path: str) -> Learner:
+def greedy_learner(path: str, *overrides: str) -> Learner:
     """A learner holding the actor of ``path`` (actor file or training checkpoint) with its own model and
-    node features, in evaluation mode."""
+    node features, in evaluation mode; ``overrides``: more config (e.g. the distillation target and step size
+    of a learner that goes on training it)."""
     actor_file = read_actor_file(path)
-    config = load_config(["scene=building", "slam=model", f"graph.features={actor_file.feature_set}"])
+    config = load_config(["scene=building", "slam=model", f"graph.features={actor_file.feature_set}", *overrides])
     learner = Learner(dataclasses.replace(offline_config(config), model=actor_file.model))
     learner.load_initial_actor(path)
     learner.set_training(False)

@@ -14,21 +14,23 @@ is the summary.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from explore_rl.config import load_config
 from explore_rl.envs.keys import ACTION_REWARDS
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_file import read_actor_file
 from explore_rl.models.checkpoint import CheckpointError
-from explore_rl.trainer.a2c import Learner
+from explore_rl.trainer.a2c import Learner, decision_stakes
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
-from explore_rl.trainer.offline import offline_config, save_offline_actor, train_offline
+from explore_rl.trainer.offline import save_offline_actor, train_offline
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
+from revisit_probe import greedy_learner  # noqa: E402  (an actor file's learner, with its model and features)
 
 DATASET = "/work/runs/data_scratch"
 ACTOR = "policies/buildings_sparse_em_choice/actor.pt"
@@ -40,12 +42,7 @@ BOOTSTRAP = 2000
 
 def learner_for(actor: str, target: str, lr: float) -> Learner:
     """A learner of ``target`` starting from the actor file ``actor`` (its model and node features)."""
-    actor_file = read_actor_file(actor)
-    config = load_config(["scene=building", "slam=model", f"graph.features={actor_file.feature_set}",
-                          f"algo.distill_target={target}", f"algo.lr={lr}"])
-    learner = Learner(dataclasses.replace(offline_config(config), model=actor_file.model))
-    learner.load_initial_actor(actor)
-    return learner
+    return greedy_learner(actor, f"algo.distill_target={target}", f"algo.lr={lr}")
 
 
 def split(dataset: DecisionDataset) -> tuple[torch.Tensor, torch.Tensor]:
@@ -67,10 +64,10 @@ def per_decision(learner: Learner, dataset: DecisionDataset, index: torch.Tensor
             mask, rewards = batch["action_mask"], batch[ACTION_REWARDS]
             pick = learner.actor.get_dist(batch).logits.masked_fill(~mask, -torch.inf).argmax(-1)
             best = rewards.masked_fill(~mask, -torch.inf).argmax(-1)
-            mean = (rewards * mask).sum(-1) / mask.sum(-1).clamp_min(1)
             rows = torch.arange(len(chunk))
-            out["gain"].append(rewards[rows, pick] - mean)
-            out["stakes"].append(rewards[rows, best] - mean)
+            stakes = decision_stakes(rewards, mask)  # EM's best above the frontiers' mean
+            out["gain"].append(rewards[rows, pick] - (rewards[rows, best] - stakes))
+            out["stakes"].append(stakes)
             out["same"].append((pick == best).float())
             out["revisits"].append(batch["x"][..., names.index("revisits")][rows, pick])
     return {key: torch.cat(value).numpy() for key, value in out.items()}
