@@ -115,8 +115,13 @@ class PolicyConfig:
 
     ``revisit_bias`` (learned only): added to each frontier's logit per keyframe its path
     revisits (the predicted loop closures) before the greedy choice -- a decision-time prior
-    towards closing loops, not learned; 0 is the actor alone."""
+    towards closing loops, not learned; 0 is the actor alone.
+
+    ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
+    probable frontiers (after ``revisit_bias``) by its utility -- a hybrid that pays part of
+    EM's cost, not the learned policy alone; 0 is the actor alone."""
 
     name: str = "nearest"
     checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"
     revisit_bias: float = 0.0
+    em_top_k: int = 0

@@ -56,10 +56,11 @@ from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
 from explore_rl.planning.actions import Action, select_actions
 from explore_rl.planning.config import PlanningConfig
-from explore_rl.planning.em import Observations, pose_covariances
+from explore_rl.planning.em import EMEvaluation, EMPlanner, Observations, pose_covariances
 from explore_rl.planning.em_fast import PLANAR, FuseRounds, fuse_batched, world_from_tangent
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.virtual_map import VirtualMap
+from explore_rl.robot_config import RobotConfig
 from explore_rl.slam.marginals import BLOCK, DepthMarginals, information_from_jacobian, planar_blocks
 
 if TYPE_CHECKING:
@@ -305,6 +306,21 @@ def revisit_counts(graph: ExplorationGraph, encoded: EncodedGraph, actions: list
     return counts
 
 
+def shortlist_rows(logits: torch.Tensor, action_mask: torch.Tensor, k: int) -> np.ndarray:
+    """Rows of the ``k`` largest logits among the ``action_mask`` rows (all of them if fewer),
+    most probable first; the first is :func:`greedy_row`'s."""
+    valid = int(action_mask.sum())
+    order = torch.argsort(logits.masked_fill(~action_mask, float("-inf")), descending=True, stable=True)
+    return order[:min(k, valid)].numpy()
+
+
+def shortlist(actions: list[Action], graph: ExplorationGraph, encoded: EncodedGraph, rows: np.ndarray) -> list[Action]:
+    """The actions of the frontier ``rows`` of ``encoded``, in the action set's order (nearest
+    first, as EM evaluates them: its ties go to the nearer)."""
+    chosen = {int(graph.candidate[encoded.nodes[row]]) for row in rows}
+    return [action for action in actions if action.candidate in chosen]
+
+
 def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
     """Row of the most probable action of ``encoded`` (:func:`greedy_row`)."""
     return greedy_row(actor_logits(actor, encoded), torch.from_numpy(encoded.action_mask))
@@ -396,12 +412,17 @@ class LearnedPolicy:
     the first implementation (the candidates' paths predicted one at a time,
     :func:`graph_features_reference`, the encoding padded to ``graph.max_nodes``) -- the
     same choices, kept to check and time the fast path against.
+
+    ``config.em_top_k`` > 0: the actor shortlists its ``k`` most probable frontiers and the
+    EM planner (``planning.em``, ``robot`` for its odometry sigmas) picks among them by its
+    Algorithm 1 utility -- not the learned policy alone: it pays EM's decision context and
+    ``k`` candidates' utilities (:attr:`last_evaluation`); ``k`` >= the action set is EM.
     """
 
     name = "learned"
 
     def __init__(self, config: PolicyConfig, planning: PlanningConfig, graph: GraphConfig | None = None,
-                 actor: GraphActor | None = None, reference: bool = False):
+                 actor: GraphActor | None = None, reference: bool = False, robot: RobotConfig | None = None):
         self.config = config
         self.reference = reference
         self.planning = planning
@@ -419,6 +440,9 @@ class LearnedPolicy:
         self.last_logits: torch.Tensor | None = None
         self.last_choice: int | None = None
         self.last_ms: dict[str, float] = {}
+        self.robot = robot
+        self._em: EMPlanner | None = None
+        self.last_evaluation: EMEvaluation | None = None
 
     def virtual_map(self, grid: GridSpec) -> VirtualMap:
         """The virtual map geometry on ``grid`` (built once; its state is never used)."""
@@ -436,13 +460,29 @@ class LearnedPolicy:
         encoded = encode(graph, self.max_nodes, compact=not self.reference)
         after_graph = time.perf_counter()
         logits = actor_logits(self.actor, encoded)
-        row = greedy_row(self.biased(logits, graph, encoded, actions), torch.from_numpy(encoded.action_mask))
-        end = time.perf_counter()
+        biased, action_mask = self.biased(logits, graph, encoded, actions), torch.from_numpy(encoded.action_mask)
+        after_forward = time.perf_counter()
         self.last_graph, self.last_encoded, self.last_logits = graph, encoded, logits
-        self.last_choice = int(graph.candidate[encoded.nodes[row]])
+        self.last_evaluation = None
+        if self.config.em_top_k > 0:  # EM decides among the actor's shortlist
+            rows = shortlist_rows(biased, action_mask, self.config.em_top_k)
+            self.last_evaluation = self.em_planner().evaluate(state, shortlist(actions, graph, encoded, rows))
+            self.last_choice = self.last_evaluation.chosen
+        else:
+            self.last_choice = int(graph.candidate[encoded.nodes[greedy_row(biased, action_mask)]])
+        end = time.perf_counter()
         self.last_ms = {"actions": 1e3 * (after_actions - start), "graph": 1e3 * (after_graph - after_actions),
                         "forward": 1e3 * (end - after_graph)}
+        if self.last_evaluation is not None:  # the shortlist's EM evaluation apart from the forward pass
+            self.last_ms.update(forward=1e3 * (after_forward - after_graph), em=1e3 * (end - after_forward))
         return self.last_choice
+
+    def em_planner(self) -> EMPlanner:
+        """The EM planner that decides among the shortlist (``policy.em_top_k``; built once: its
+        observation cache carries over between decisions, as EM's own does)."""
+        if self._em is None:
+            self._em = EMPlanner(self.config, self.planning, robot=self.robot)
+        return self._em
 
     def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
                actions: list[Action]) -> torch.Tensor:

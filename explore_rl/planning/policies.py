@@ -60,5 +60,5 @@ def make_policy(config: PolicyConfig, rng: np.random.Generator, planning=None, r
     if config.name == "learned":
         from explore_rl.planning.learned import LearnedPolicy
 
-        return LearnedPolicy(config, planning, graph=graph)
+        return LearnedPolicy(config, planning, graph=graph, robot=robot)
     raise ValueError(f"unknown policy.name={config.name!r}; choose nearest, random, em or learned")

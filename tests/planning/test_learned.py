@@ -11,7 +11,7 @@ import torch
 
 from explore_rl.config import load_config
 from explore_rl.graph.features import feature_names
-from explore_rl.planning.em import make_decision_context, pose_covariances
+from explore_rl.planning.em import EMPlanner, make_decision_context, pose_covariances
 from explore_rl.planning.learned import (
     Equivalence,
     LearnedPolicy,
@@ -148,6 +148,44 @@ def test_the_revisit_prior_adds_the_revisited_keyframes_to_the_logits(tmp_path):
     assert informative > 0
     with pytest.raises(ValueError, match="policy.revisit_bias") as error:
         load_config([*FAST, "policy.revisit_bias=-0.5"])
+    assert "\n" not in str(error.value)
+
+
+def test_em_decides_among_the_actors_shortlist(tmp_path):
+    """``policy.em_top_k``: the shortlist is the actor's k most probable frontiers; EM's utilities
+    of it equal EM's own evaluation of those frontiers (all of them, on the same state) and the
+    choice is the best of them; k = 1 is the actor's greedy choice, k >= the action set EM's.
+    A negative k is refused in one line naming the key."""
+    config = load_config([*FAST, "graph.features=extended"])  # at most 4 frontiers per decision
+    path, learner = actor_file(tmp_path, config)
+
+    def hybrid(k: int) -> LearnedPolicy:
+        return LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), em_top_k=k), config.planning,
+                             graph=config.graph, robot=config.robot)
+
+    alone, one, two, every = hybrid(0), hybrid(1), hybrid(2), hybrid(4)
+    em = EMPlanner(PolicyConfig("em"), config.planning, robot=config.robot)
+    shortened = 0  # decisions where the shortlist left frontiers out
+    for decision, env_choice in env_decisions(config, learner, steps=6):
+        state = decision.state
+        full = em.evaluate(state)
+        assert alone.choose(state) == one.choose(state) == env_choice
+        assert list(one.last_evaluation.indices) == [env_choice]
+        assert every.choose(state) == full.chosen
+        choice = two.choose(state)
+        graph, encoded, logits = alone.last_graph, alone.last_encoded, alone.last_logits.numpy()
+        rows = np.flatnonzero(encoded.action_mask)
+        most_probable = rows[np.argsort(-logits[rows], kind="stable")][:2]
+        evaluation = two.last_evaluation
+        assert set(evaluation.indices) == set(graph.candidate[encoded.nodes[most_probable]])
+        position = [int(np.flatnonzero(full.indices == candidate)[0]) for candidate in evaluation.indices]
+        np.testing.assert_allclose(evaluation.raw, full.raw[position], rtol=1e-9, atol=1e-9)
+        assert choice == evaluation.indices[np.argmax(full.raw[position])]
+        assert set(two.last_ms) == {"actions", "graph", "forward", "em"}
+        shortened += len(full.indices) > 2
+    assert shortened > 0
+    with pytest.raises(ValueError, match="policy.em_top_k") as error:
+        load_config([*FAST, "policy.em_top_k=-1"])
     assert "\n" not in str(error.value)
 
 
