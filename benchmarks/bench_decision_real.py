@@ -18,7 +18,9 @@ be the reference's decision under :class:`~explore_rl.planning.learned.Equivalen
 1e-6 of the largest, probabilities within 1e-6). ``em_over_shared`` is the structural
 bound: EM over the parts EM pays too (the action set and the pose marginals), i.e. the
 ratio if every part of the learned decision only it has (landmark fusion, extras, graph,
-encoding, forward) cost nothing. One torch thread, as ``explore-rl-eval``'s workers.
+encoding, forward) cost nothing. ``ms_top{k}`` times the hybrid ``policy.em_top_k=k`` (the
+actor shortlists k frontiers, EM picks among them; k in ``SHORTLISTS``) on the same states,
+``em_over_top{k}`` EM over it. One torch thread, as ``explore-rl-eval``'s workers.
 
     python benchmarks/bench_decision_real.py [--quick | --smoke]
 """
@@ -27,7 +29,7 @@ from __future__ import annotations
 
 import sys
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +60,7 @@ from explore_rl.runner import Explorer  # noqa: E402
 from explore_rl.state import ExplorationState  # noqa: E402
 
 EQUIVALENCE = Equivalence()
+SHORTLISTS = (2, 3)  # policy.em_top_k values timed beside EM and the actor alone
 ZERO_SHOT = ["slam=icp", "graph.max_nodes=1024", "policy=learned", "explore.progress_bar=false", "seed=0"]
 
 
@@ -104,9 +107,11 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
 
 
 def measure_state(state: ExplorationState, ms_state: float, learned: LearnedPolicy, reference: LearnedPolicy,
-                  em: EMPlanner, repeats: int) -> dict:
+                  em: EMPlanner, repeats: int, hybrids: dict[int, LearnedPolicy]) -> dict:
     """Milliseconds of each policy's ``choose`` on ``state`` and the fast/reference agreement."""
     ms_em = 1e3 * time_call(lambda: em.choose(state), repeats)  # as the learned policy: less noise
+    ms_hybrid = {f"ms_top{k}": 1e3 * time_call(new_observation(lambda h=hybrid: h.choose(state)), repeats)
+                 for k, hybrid in hybrids.items()}
     ms_reference = 1e3 * time_call(new_observation(lambda: reference.choose(state)), repeats)
     ms_learned = 1e3 * time_call(new_observation(lambda: learned.choose(state)), repeats)
     parts = dict(learned.last_ms)
@@ -123,7 +128,7 @@ def measure_state(state: ExplorationState, ms_state: float, learned: LearnedPoli
             "equivalent": difference.within(EQUIVALENCE), "feature_rel_diff": difference.feature_rel,
             "logit_rel_diff": difference.logit_rel, "probability_diff": difference.probability,
             "max_logit_diff": float((learned.last_logits - reference.last_logits[:n]).abs().max()),
-            **part_times(state, learned, repeats)}
+            **ms_hybrid, **part_times(state, learned, repeats)}
 
 
 def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: list[str]) -> list[dict]:
@@ -136,6 +141,10 @@ def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: lis
                               reference=True)
     reference.features = learned.features
     em = EMPlanner(PolicyConfig(name="em"), config.planning)
+    hybrids = {k: LearnedPolicy(replace(learned.config, em_top_k=k), config.planning, graph=config.graph,
+                                actor=learned.actor, robot=config.robot) for k in SHORTLISTS}
+    for hybrid in hybrids.values():
+        hybrid.features = learned.features
     rows = []
     for decision in range(max_decisions):
         start = time.perf_counter()
@@ -145,7 +154,7 @@ def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: lis
             break
         if decision % every == every - 1:
             rows.append({"scene": scene, "decision": decision,
-                         **measure_state(state, ms_state, learned, reference, em, repeats)})
+                         **measure_state(state, ms_state, learned, reference, em, repeats, hybrids)})
             r = rows[-1]
             print(f"{scene:7s} {decision:3d} {r['poses']:5d} {r['graph_nodes']:6d} {r['ms_state']:8.1f} "
                   f"{r['ms_em']:8.1f} {r['ms_learned']:8.1f} {r['ms_learned_reference']:8.1f} "
@@ -160,7 +169,8 @@ def summary(rows: list[dict]) -> dict:
     """Means and medians over the measured states, the ratios of the means and the median
     of the per-state ratios (single states are noisy on a shared machine: the median)."""
     keys = ("ms_state", "ms_em", "ms_learned", "ms_learned_reference", "ms_nearest", "ms_learned_actions",
-            "ms_learned_graph", "ms_learned_forward", "poses", *[key for key in rows[0] if key.startswith("ms_part_")])
+            "ms_learned_graph", "ms_learned_forward", "poses",
+            *[key for key in rows[0] if key.startswith(("ms_part_", "ms_top"))])
     mean = {key: float(np.mean([r[key] for r in rows])) for key in keys}
     median = {f"{key}_median": round(float(np.median([r[key] for r in rows])), 2) for key in keys}
     ratios = np.array([r["ms_em"] / r["ms_learned"] for r in rows])
@@ -174,6 +184,7 @@ def summary(rows: list[dict]) -> dict:
             "em_over_shared": round(mean["ms_em"] / (mean["ms_part_actions"] + mean["ms_part_marginals"]), 2),
             "em_over_learned_decide_median": round(float(np.median(decide)), 2),
             "em_over_learned_min": round(float(ratios.min()), 2),
+            **{f"em_over_top{k}": round(mean["ms_em"] / mean[f"ms_top{k}"], 2) for k in SHORTLISTS},
             "states_at_5x": int(np.sum(ratios >= 5)),
             "reference_over_learned": round(mean["ms_learned_reference"] / mean["ms_learned"], 2),
             "reference_over_learned_median": round(float(np.median(

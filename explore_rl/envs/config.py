@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -32,6 +33,9 @@ class EnvConfig:
     validation_layouts: list[int] = field(default_factory=lambda: [1000, 1010])
     # scenes kept built in one env (a building per layout costs memory; least recently used goes)
     scene_cache: int = 8
+    # reward term: minus this times the growth of the map error (m) over the step; the steps add
+    # up to the episode's final map error (whole-exploration credit for A2C; 0: the paper's reward)
+    map_error_coef: float = 0.0
 
     def validate(self) -> None:
         """Raise a one-line error naming the key."""
@@ -48,5 +52,7 @@ class EnvConfig:
         if train is not None and train[0] < val[1] and val[0] < train[1]:
             raise ValueError(f"env.train_layouts={list(train)} overlaps env.validation_layouts={list(val)}: "
                              "models must be selected on layouts training never sees")
+        if not (self.map_error_coef >= 0 and math.isfinite(self.map_error_coef)):
+            raise ValueError(f"env.map_error_coef must be >= 0 (finite), got {self.map_error_coef}")
         if self.scene_cache < 1:
             raise ValueError(f"env.scene_cache must be >= 1, got {self.scene_cache}")

@@ -4,7 +4,9 @@ Observation: the exploration graph of the current decision, padded (``x``, ``adj
 ``node_mask``, ``action_mask``; explore_rl/graph/encode.py). Action: a node index; only
 frontier nodes are valid (a masked categorical over ``graph.max_nodes``). Reward: the
 Algorithm 1 reward of the chosen node, from EM's evaluation of *every* frontier node of
-the same decision (min-max normalised, anchored on the nearest frontier). Then the robot
+the same decision (min-max normalised, anchored on the nearest frontier), minus
+``env.map_error_coef`` times the step's growth of the map error (0 by default: the paper's
+reward; the terms add up to the episode's final map error). Then the robot
 drives the path with SLAM (``Explorer.act``), the same exploration step the plain runner
 uses.
 
@@ -112,6 +114,7 @@ class ExplorationEnv(EnvBase):
         self.explorer: Explorer | None = None
         self.decision: Decision | None = None
         self.episode = 0
+        self.map_error_before = 0.0  # the map error when the current step began (env.map_error_coef)
         self.max_nodes_seen = 0
         self._scenes: dict[tuple[int, int], Scene] = {}  # (layout, start) -> scene, in order of use
         self.layout_of_episode = int(config.scene.seed)
@@ -215,6 +218,7 @@ class ExplorationEnv(EnvBase):
         for _ in range(RESET_ATTEMPTS):
             self.explorer = self.new_explorer()
             self.decision = self.observe()
+            self.map_error_before = self.explorer.session.metrics().map_error_m
             if self.decision is not None:
                 break
             log.warning("episode %d had no reachable frontier at its start; trying the next",
@@ -231,6 +235,7 @@ class ExplorationEnv(EnvBase):
         self.episode = episode
         self.explorer = self.new_explorer()
         self.decision = self.observe()
+        self.map_error_before = self.explorer.session.metrics().map_error_m
         record = None
         for row in actions:
             if self.decision is None:
@@ -273,12 +278,24 @@ class ExplorationEnv(EnvBase):
         try:
             with self.timer("drive"):
                 record = self.explorer.act(decision.state, decision.actions[k].candidate)
+            reward -= self.map_error_penalty(record.map_error_m)
             self.decision = self.observe()
         except Exception:  # noqa: BLE001 -- one bad step must not end a training run
             log.exception("episode %d: driving or observing failed; the episode ends truncated", self.episode - 1)
             self.failures["step"] += 1
             self.decision, failed = None, True
         return reward, record, failed
+
+    def map_error_penalty(self, map_error: float) -> float:
+        """``env.map_error_coef`` times the map error's growth over this step (the steps' sum
+        is the episode's map error at its end: whole-exploration credit for A2C); 0 when
+        the coefficient is 0 or the map error is not finite (logged)."""
+        coef, before = self.config.env.map_error_coef, self.map_error_before
+        if not np.isfinite(map_error):
+            log.warning("episode %d: map error %s; no map-error term this step", self.episode - 1, map_error)
+            return 0.0
+        self.map_error_before = map_error
+        return coef * (map_error - before) if coef > 0 else 0.0
 
     def validate_action(self, action: int, decision: Decision) -> int:
         """Position in the action set of the frontier at row ``action``; a clear error otherwise."""

@@ -94,6 +94,32 @@ def test_reward_is_algorithm_1_on_an_independent_em_evaluation_of_the_same_state
     assert out["next", "reward"].item() == pytest.approx(expected[last], abs=1e-6)
 
 
+def test_the_map_error_term_charges_each_steps_growth_and_sums_to_the_final_map_error():
+    """``env.map_error_coef=c``: each step's reward is the chosen frontier's Algorithm 1 reward
+    minus c times the growth of the map error the step reports; over an episode the terms add
+    up to c times (final - initial) map error. A negative coefficient is refused in one line."""
+    coef = 40.0
+    env = env_for("scene=office", "seed=1", "explore.max_decisions=8", f"env.map_error_coef={coef}")
+    td = env.reset()
+    start = before = td["map_error"].item()
+    charged = 0.0
+    for _ in range(8):
+        td = td.set("action", td[NEAREST_ACTION])
+        algorithm_1 = td[ACTION_REWARDS][td["action"]].item()
+        out = env.step(td)
+        after, reward = out["next", "map_error"].item(), out["next", "reward"].item()
+        assert reward == pytest.approx(algorithm_1 - coef * (after - before), abs=1e-5)
+        charged += algorithm_1 - reward
+        before, td = after, out["next"]
+        if out["next", "done"].item():
+            break
+    assert before != start  # the map error moved, so the term was exercised
+    assert charged == pytest.approx(coef * (before - start), abs=1e-4)
+    with pytest.raises(ValueError, match="env.map_error_coef") as error:
+        load_config(["env.map_error_coef=-1"])
+    assert "\n" not in str(error.value)
+
+
 def test_a_whole_office_episode_with_random_valid_actions_ends_done():
     env = env_for("scene=office", "seed=3")
     steps = run_episode(env)
