@@ -7,13 +7,7 @@ PY=${PY:-/work/main/.venv/bin/python}
 STUDY=$HERE/../../study_zero_shot.py
 PAIR=$HERE/../revisit_bias/runs/val_pair  # EM's and the shipped actor's validation trials (same config)
 ZS=$HERE/../zero_shot_buildings_100/runs  # EM's and the shipped actor's held-out trials
-keep() {  # keep SRC DST: each finished building's trials and summary
-  [ -d $1 ] || return 0
-  for d in $1/building_*/; do
-    [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
-    mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
-  done
-}
+source $HERE/../keep.sh  # keep SRC DST: each finished building's trials and summary
 # the stakes actor (runs/val) and, where it ran, the em_choice control arm (runs/val_control)
 for name in val val_control; do
   run=/work/runs/sd_val; [ $name = val_control ] && run=/work/runs/sd_control_val
