@@ -64,13 +64,13 @@ def main(argv: list[str] | None = None) -> None:
     if min(args.k) < 1:
         parser.error(f"--k {args.k}: every k must be >= 1")
     try:  # every input checked before anything runs
-        dataset = DecisionDataset(args.dataset)
-    except ValueError as error:
-        parser.error(f"--dataset {error}")
-    try:
         read_actor_file(args.actor)
     except (ValueError, CheckpointError) as error:
         parser.error(f"--actor {error}")
+    try:
+        dataset = DecisionDataset(args.dataset)
+    except ValueError as error:
+        parser.error(f"--dataset {error}")
     _, probe_index = split(dataset)
     if len(probe_index) == 0:
         parser.error(f"--dataset {args.dataset}: no decisions of the probe layouts (layout % 4 == 3)")
