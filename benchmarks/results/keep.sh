@@ -1,8 +1,23 @@
-# keep SRC DST: each finished building's trials and summary of a run.sh folder (sourced by the study scripts)
+# Shared by the study scripts (sourced). PY: the Python to run (default: the repo's venv).
+RESULTS=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+PY=${PY:-$RESULTS/../../.venv/bin/python}
+
+# keep SRC DST: each finished building's trials and summary of a run.sh folder
 keep() {
   [ -d $1 ] || return 0
   for d in $1/building_*/; do
     [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
     mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
   done
+}
+
+# val_study SRC HERE NAME: keep SRC's validation trials (stakes_distill/run.sh, SET=val) in HERE/runs/NAME, then
+# study_zero_shot.py against EM's (HERE/study_NAME.log) and the shipped actor's (HERE/direct_NAME.log) trials of
+# the same config (revisit_bias/runs/val_pair)
+val_study() {
+  local pair=$RESULTS/revisit_bias/runs/val_pair
+  keep $1 $2/runs/$3
+  $PY $RESULTS/../study_zero_shot.py $2/runs/$3 --reference $pair --pool $3 --out $2/targets_$3 > $2/study_$3.log
+  $PY $RESULTS/../study_zero_shot.py $2/runs/$3 --reference $pair --reference-policy learned --pool ${3}_direct \
+    --out $2/targets_${3}_direct > $2/direct_$3.log
 }
