@@ -1,6 +1,6 @@
 """Smoke test of benchmarks/bench_decision_real.py: it runs (``--smoke``: two office
 decisions, model front end) and its JSON last line holds the figures RESULTS.md quotes.
-Times are not checked; the fast learned path must have been the reference's decision
+Times are not checked (beyond the policy.em_top_k hybrids' being timed); the fast learned path must have been the reference's decision
 (:class:`~explore_rl.planning.learned.Equivalence`)."""
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from tests.benchmarks.smoke import run_script
 KEYS = ["ms_em", "ms_learned", "ms_learned_reference", "em_over_learned", "em_over_learned_decide",
         "em_over_learned_median", "em_over_shared", "ms_state", "same_choice", "equivalent",
         "equivalence", "feature_rel_diff", "logit_rel_diff", "probability_diff", "max_logit_diff", "ms_part_actions",
-        "ms_part_marginals", "ms_part_landmarks", "ms_part_forward", "ms_part_forward_reference", "scenes", "rows"]
+        "ms_part_marginals", "ms_part_landmarks", "ms_part_forward", "ms_part_forward_reference", "scenes", "rows",
+        "ms_top2", "ms_top3", "em_over_top2", "em_over_top3"]
 
 
 def test_bench_decision_real_smoke(tmp_path: Path) -> None:
@@ -27,3 +28,4 @@ def test_bench_decision_real_smoke(tmp_path: Path) -> None:
     assert result["probability_diff"] <= result["equivalence"]["probability_atol"]
     assert result["em_over_shared"] >= result["em_over_learned"]  # the bound: the learned-only parts at 0 ms
     assert result["ms_em"] > 0 and result["ms_learned"] > 0 and result["ms_learned_reference"] > 0
+    assert result["ms_top2"] > 0 and abs(result["em_over_top2"] - result["ms_em"] / result["ms_top2"]) <= 0.011
