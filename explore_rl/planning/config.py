@@ -118,8 +118,9 @@ class PolicyConfig:
     towards closing loops, not learned; 0 is the actor alone.
 
     ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
-    probable frontiers (after ``revisit_bias``) by its utility -- a hybrid that pays part of
-    EM's cost, not the learned policy alone; 0 is the actor alone."""
+    probable frontiers (after ``revisit_bias``) by its utility -- a hybrid, not the learned
+    policy alone, that costs about what EM costs (EM's decision context dominates); a
+    diagnostic of the actor's ranking; 0 is the actor alone."""
 
     name: str = "nearest"
     checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"
