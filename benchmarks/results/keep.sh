@@ -2,11 +2,14 @@
 RESULTS=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 PY=${PY:-$RESULTS/../../.venv/bin/python}
 
-# keep SRC DST: each finished building's trials and summary of a run.sh folder
+# keep SRC DST [PARITY]: each finished building's trials and summary of a run or sweep folder (its *building_SEED
+# folders; PARITY even/odd: those seeds only)
 keep() {
   [ -d $1 ] || return 0
-  for d in $1/building_*/; do
+  for d in $1/*building_*/; do
     [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
+    seed=${d%/}; seed=${seed##*_}
+    case ${3:-all} in even) [ $((seed % 2)) -eq 0 ] || continue;; odd) [ $((seed % 2)) -eq 1 ] || continue;; esac
     mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
   done
 }

@@ -218,7 +218,6 @@ class ExplorationEnv(EnvBase):
         for _ in range(RESET_ATTEMPTS):
             self.explorer = self.new_explorer()
             self.decision = self.observe()
-            self.map_error_before = self.explorer.session.metrics().map_error_m
             if self.decision is not None:
                 break
             log.warning("episode %d had no reachable frontier at its start; trying the next",
@@ -226,7 +225,9 @@ class ExplorationEnv(EnvBase):
         if self.decision is None:
             raise RuntimeError(f"{RESET_ATTEMPTS} episodes in a row had no reachable frontier at the "
                                "start: check the scene's starts")
-        out = self.observation(self.decision, self.explorer_info(None, failed=False))
+        info = self.explorer_info(None, failed=False)
+        self.map_error_before = info["map_error"]  # the episode's first map error (env.map_error_coef)
+        out = self.observation(self.decision, info)
         return out.update(self.full_done_spec.zero())
 
     def replay(self, episode: int, actions: list[int]) -> TensorDictBase:

@@ -7,15 +7,7 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 PY=${PY:-/work/main/.venv/bin/python}
 STUDY=$HERE/../../study_zero_shot.py
 ZS=$HERE/../zero_shot_buildings_100/runs  # EM's and the shipped actor's trials of the held-out buildings
-keep() {  # keep SRC DST [PARITY]: each building's trials and summary, from a sweep folder (PARITY: even/odd seeds)
-  [ -d $1 ] || return 0
-  for d in $1/*building_*/; do
-    [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
-    seed=${d%/}; seed=${seed##*_}
-    case ${3:-all} in even) [ $((seed % 2)) -eq 0 ] || continue;; odd) [ $((seed % 2)) -eq 1 ] || continue;; esac
-    mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
-  done
-}
+source $HERE/../keep.sh  # keep SRC DST [PARITY]
 # validation: a building counts once both runs of it finished
 for d in /work/runs/rb_val/biased/building_*/; do
   b=$(basename $d)

@@ -6,13 +6,7 @@ set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 PY=${PY:-/work/main/.venv/bin/python}
 STUDY=$HERE/../../study_zero_shot.py
-keep() {  # keep SRC DST: each building's trials and summary, from a sweep folder
-  [ -d $1 ] || return 0
-  for d in $1/*_building_*/; do
-    [ -e $d/trials.jsonl ] || continue  # a building cut before it finished
-    mkdir -p $2/$(basename $d) && cp $d/trials.jsonl $d/summary.md $2/$(basename $d)/
-  done
-}
+source $HERE/../keep.sh  # keep SRC DST
 for s in even odd; do
   keep /work/runs/zs_b100/$s $HERE/runs/$s
   keep /work/runs/zs_b100_nearest/$s $HERE/runs_nearest/$s
