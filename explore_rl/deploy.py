@@ -41,7 +41,7 @@ import torch
 
 from explore_rl.graph.encode import EncodedGraph, encode
 from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph
-from explore_rl.graph.features import FRONTIER_EXTRAS
+from explore_rl.graph.features import FRONTIER_EXTRAS, has_frontier_extras, has_loop_length
 from explore_rl.models.actor_critic import greedy_row
 from explore_rl.models.actor_file import ActorFile, check_output_file, export_actor_file, load_actor
 from explore_rl.models.export import ExportedActor, export_actor
@@ -93,7 +93,8 @@ class DeployedPolicy:
         """The exploration graph of the arrays (frontier node ``j`` refers to the caller's
         frontier ``graph.candidate[node]``; the nearest comes first). ``frontier_extra (F, 6)``:
         the extended columns (explore_rl/graph/features.py ``FRONTIER_EXTRAS``), needed by a
-        policy trained with ``graph.features=extended`` and refused by one trained without."""
+        policy trained with ``graph.features=extended`` or ``loops`` and refused by one trained
+        without (``loops``' own column is computed from ``pose_edges`` and the revisits)."""
         pose_xy = np.asarray(pose_xy, float).reshape(-1, 2)
         frontier_xy = np.asarray(frontier_xy, float).reshape(-1, 2)
         n_poses, n_frontiers = len(pose_xy), len(frontier_xy)
@@ -114,14 +115,21 @@ class DeployedPolicy:
         extra = self.frontier_extra(frontier_extra, n_frontiers)
         return build_graph(pose_xy, pose_u, edges, frontier_xy[order], frontier_u[order],
                            [list(frontier_revisits[f]) for f in order], current=current,
-                           frontier_candidates=order, frontier_extra=None if extra is None else extra[order])
+                           frontier_candidates=order, frontier_extra=None if extra is None else extra[order],
+                           loop_length=self.reads_loop_length)
+
+    @property
+    def reads_loop_length(self) -> bool:
+        """Whether the policy reads ``loop_length`` (``graph.features=loops``): the graph
+        computes it from the pose edges and revisits given, so the caller passes nothing more."""
+        return self.actor_file is not None and has_loop_length(self.actor_file.feature_set)
 
     def frontier_extra(self, extra, n_frontiers: int) -> np.ndarray | None:
         """``frontier_extra`` checked against what the policy reads."""
-        wants = self.actor_file is not None and self.actor_file.feature_set == "extended"
+        wants = self.actor_file is not None and has_frontier_extras(self.actor_file.feature_set)
         if extra is None:
             if wants:
-                raise ValueError(f"this policy reads graph.features=extended: pass frontier_extra=(F, "
+                raise ValueError(f"this policy reads graph.features={self.actor_file.feature_set}: pass frontier_extra=(F, "
                                  f"{len(FRONTIER_EXTRAS)}) with columns {', '.join(FRONTIER_EXTRAS)}")
             return None
         if self.actor_file is not None and not wants:

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from explore_rl.graph.features import PAPER, frontier_extras
+from explore_rl.graph.features import PAPER, frontier_extras, has_frontier_extras, has_loop_length, loop_lengths
 
 if TYPE_CHECKING:  # annotations only: the graph layer imports nothing from planning at run time
     from explore_rl.planning.actions import Action
@@ -83,6 +83,7 @@ def build_graph(
     current: int | None = None,
     frontier_candidates: Sequence[int] | None = None,
     frontier_extra: np.ndarray | None = None,
+    loop_length: bool = False,
 ) -> ExplorationGraph:
     """The exploration graph from plain arrays.
 
@@ -94,6 +95,8 @@ def build_graph(
     frontier ``f`` revisits. ``current``: the current keyframe (default: the newest).
     ``frontier_candidates``: what each frontier node refers to (default ``0..F-1``).
     ``frontier_extra (F, E)``: extra frontier columns (``graph.features=extended``), 0 on poses.
+    ``loop_length``: append the ``loop_length`` column (``graph.features=loops``), computed
+    here from the graph's own edges (:func:`explore_rl.graph.features.loop_lengths`).
     """
     pose_xy = np.asarray(pose_xy, float).reshape(-1, 2)
     frontier_xy = np.asarray(frontier_xy, float).reshape(-1, 2)
@@ -124,6 +127,9 @@ def build_graph(
         frontier_extra = np.asarray(frontier_extra, float).reshape(n_frontiers, -1)
         features = np.column_stack([features, np.vstack([np.zeros((n_poses, frontier_extra.shape[1])),
                                                          frontier_extra])])
+    if loop_length:
+        loops = loop_lengths(n_poses, edges, weights, current, frontier_nodes)
+        features = np.column_stack([features, np.r_[np.zeros(n_poses), loops]])
     candidates = np.arange(n_frontiers) if frontier_candidates is None else np.asarray(frontier_candidates)
     return ExplorationGraph(
         xy=xy, features=features, edges=edges, weights=weights,
@@ -157,16 +163,17 @@ def graph_from_state(state: ExplorationState, context: DecisionContext,
     ``context`` (:func:`explore_rl.planning.em.make_decision_context`) holds the keyframe
     marginals and the virtual map; ``actions`` the frontiers (nearest first) and their
     predicted revisits. ``features``: ``graph.features`` (``extended`` adds the columns of
-    explore_rl/graph/features.py, measured within ``sensor_range`` of each frontier).
+    explore_rl/graph/features.py, measured within ``sensor_range`` of each frontier;
+    ``loops`` those and ``loop_length``).
     """
     frontier_covs = context.vmap.frontier_landmark_covariance(action_frontiers(state, actions),
                                                               context.landmark_covs)
     extra = None
-    if features == "extended":
+    if has_frontier_extras(features):
         extra = frontier_extras(state, actions, context.pose_covs, context.vmap.landmark_xy, context.landmark_covs,
                                 sensor_range)
     return graph_from_estimates(state, actions, context.poses, context.pose_covs, frontier_covs,
-                                factor_edges(context.graph.edges), extra)
+                                factor_edges(context.graph.edges), extra, has_loop_length(features))
 
 
 def action_frontiers(state: ExplorationState, actions: list[Action]) -> np.ndarray:
@@ -176,7 +183,8 @@ def action_frontiers(state: ExplorationState, actions: list[Action]) -> np.ndarr
 
 def graph_from_estimates(state: ExplorationState, actions: list[Action], poses: np.ndarray,
                          pose_covs: np.ndarray, frontier_covs: np.ndarray,
-                         pose_edges: np.ndarray, frontier_extra: np.ndarray | None = None) -> ExplorationGraph:
+                         pose_edges: np.ndarray, frontier_extra: np.ndarray | None = None,
+                         loop_length: bool = False) -> ExplorationGraph:
     """The exploration graph from keyframe estimates ``poses (K, 3)``, their world-frame
     covariances ``pose_covs (K, 3, 3)`` (only the xy block is read), the action frontiers'
     virtual-landmark covariances ``frontier_covs (F, 2, 2)`` and the factor pairs.
@@ -188,4 +196,4 @@ def graph_from_estimates(state: ExplorationState, actions: list[Action], poses: 
     revisits = [[r.keyframe_index for r in a.prediction.revisits] for a in actions]
     return build_graph(poses[:, :2], pose_uncertainty, pose_edges, action_frontiers(state, actions),
                        frontier_uncertainty, revisits, frontier_candidates=[a.candidate for a in actions],
-                       frontier_extra=frontier_extra)
+                       frontier_extra=frontier_extra, loop_length=loop_length)

@@ -14,6 +14,15 @@ alone closes ~45 % of the random-to-EM gap, no paper feature does better than ra
 * ``landmark_uncertainty``: mean trace of the virtual landmarks' covariance within the
   LiDAR range of the waypoint (m^2).
 
+``loops`` appends one more, a function of the exploration graph itself (:func:`loop_lengths`):
+
+* ``loop_length``: the largest distance through the pose graph (SLAM factor edges, metres)
+  from the current keyframe to a keyframe the path revisits (0 if none): how long a loop
+  the revisit would close. What a loop closure corrects grows with the robot's uncertainty
+  *relative to* the revisited keyframe, which the marginals do not show (a recent keyframe,
+  or one an earlier loop already joined, is close through the graph however uncertain it
+  is); a g-U-Net of depth 3 cannot find a shortest path over hundreds of poses.
+
 Pose nodes carry 0 in the frontier columns. Each feature has a scale (multiplied in by the
 model, ``model.feature_scale``) that brings it to order one.
 """
@@ -25,6 +34,8 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra
 
 if TYPE_CHECKING:
     from explore_rl.planning.actions import Action
@@ -33,11 +44,12 @@ if TYPE_CHECKING:
 PAPER = ("uncertainty", "distance", "bearing", "identity")
 FRONTIER_EXTRAS = ("path_length", "frontier_size", "unknown_nearby", "revisits", "revisit_uncertainty",
                    "landmark_uncertainty")
-FEATURE_SETS = {"paper": PAPER, "extended": PAPER + FRONTIER_EXTRAS}
+LOOP_EXTRAS = ("loop_length",)
+FEATURE_SETS = {"paper": PAPER, "extended": PAPER + FRONTIER_EXTRAS, "loops": PAPER + FRONTIER_EXTRAS + LOOP_EXTRAS}
 SCALES = {
     "uncertainty": 10.0, "distance": 0.1, "bearing": 1.0 / math.pi, "identity": 1.0,
     "path_length": 0.05, "frontier_size": 0.5, "unknown_nearby": 1.0, "revisits": 0.1,
-    "revisit_uncertainty": 10.0, "landmark_uncertainty": 10.0,
+    "revisit_uncertainty": 10.0, "landmark_uncertainty": 10.0, "loop_length": 0.05,
 }
 
 
@@ -46,6 +58,16 @@ def feature_names(feature_set: str) -> tuple[str, ...]:
     if feature_set not in FEATURE_SETS:
         raise ValueError(f"graph.features={feature_set!r}: choose one of {', '.join(FEATURE_SETS)}")
     return FEATURE_SETS[feature_set]
+
+
+def has_frontier_extras(feature_set: str) -> bool:
+    """Whether ``graph.features`` reads the per-frontier columns of :func:`frontier_extras`."""
+    return FRONTIER_EXTRAS[0] in feature_names(feature_set)
+
+
+def has_loop_length(feature_set: str) -> bool:
+    """Whether ``graph.features`` reads ``loop_length`` (:func:`loop_lengths`)."""
+    return LOOP_EXTRAS[0] in feature_names(feature_set)
 
 
 def feature_set_of(names: list[str] | tuple[str, ...]) -> str:
@@ -129,3 +151,34 @@ def frontier_extras(state: ExplorationState, actions: list[Action], pose_covs: n
             float(landmark_trace[near].mean()) if near.any() else 0.0,
         ])
     return np.asarray(rows, dtype=float).reshape(len(actions), len(FRONTIER_EXTRAS))
+
+
+def loop_lengths(n_poses: int, edges: np.ndarray, weights: np.ndarray, current: int,
+                 frontier_nodes: np.ndarray) -> np.ndarray:
+    """``(F,)`` ``loop_length`` of the frontier nodes of an exploration graph.
+
+    Nodes ``0..n_poses-1`` are keyframes; ``edges (E, 2)`` with lengths ``weights (E,)``
+    are all the graph's edges. Distances run through the pose-pose edges only (SLAM
+    factors), from ``current``; a frontier's value is the largest over the keyframes it is
+    joined to (the ones its path revisits; the nearest frontier's edge to the current pose
+    adds 0), 0 if it is joined to none. ValueError if a joined keyframe cannot be reached
+    from the current one (the pose graph of a running exploration is connected)."""
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    weights = np.asarray(weights, dtype=float).reshape(-1)
+    poses = (edges < n_poses).all(axis=1)
+    pairs, lengths = edges[poses], weights[poses]
+    graph = sp.coo_matrix((lengths, (pairs[:, 0], pairs[:, 1])), shape=(n_poses, n_poses)).tocsr()
+    distance = dijkstra(graph, directed=False, indices=int(current))
+    values = np.zeros(len(frontier_nodes))
+    for row, node in enumerate(np.asarray(frontier_nodes, dtype=np.int64)):
+        joined = edges[(edges == node).any(axis=1)]
+        keyframes = joined[joined != node]
+        keyframes = keyframes[keyframes < n_poses]
+        if len(keyframes) == 0:
+            continue
+        reach = distance[keyframes]
+        if not np.isfinite(reach).all():
+            raise ValueError(f"frontier node {node}: keyframes {keyframes[~np.isfinite(reach)].tolist()} "
+                             f"are not reachable from keyframe {current} through the pose graph")
+        values[row] = reach.max()
+    return values

@@ -50,7 +50,7 @@ from explore_rl.graph.exploration_graph import (
     factor_edges,
     graph_from_estimates,
 )
-from explore_rl.graph.features import frontier_extras
+from explore_rl.graph.features import frontier_extras, has_frontier_extras, has_loop_length
 from explore_rl.grid import GridSpec
 from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
@@ -210,17 +210,17 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     frontier's covariance is the same whatever else is fused with it)."""
     poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend, fast=True)
     index = vmap.landmark_index(frontier_xy)
-    near = (landmarks_near(vmap, frontier_xy, vmap.config.sensor_range) if features == "extended"
+    near = (landmarks_near(vmap, frontier_xy, vmap.config.sensor_range) if has_frontier_extras(features)
             else np.zeros(0, dtype=np.int64))
     landmarks = np.union1d(index[index >= 0], near)
     fused = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks)
     frontier_covs = covariances_of(vmap, index, landmarks, fused)
     extra = None
-    if features == "extended":
+    if has_frontier_extras(features):
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near],
                                 fused[np.searchsorted(landmarks, near)], vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(state.session.graph.edges), extra)
+                                factor_edges(state.session.graph.edges), extra, has_loop_length(features))
 
 
 def graph_features_reference(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
@@ -231,13 +231,13 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
     poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend)
     frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy, reference=True)
     extra = None
-    if features == "extended":
+    if has_frontier_extras(features):
         landmarks = landmarks_near_reference(vmap, frontier_xy, vmap.config.sensor_range)
         covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, reference=True)
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
     return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(state.session.graph.edges), extra)
+                                factor_edges(state.session.graph.edges), extra, has_loop_length(features))
 
 
 def decision_estimates(state: ExplorationState, actions: list[Action], backend: str,

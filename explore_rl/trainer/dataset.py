@@ -34,11 +34,15 @@ import logging
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.data import LazyMemmapStorage, ReplayBuffer
 
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, EXPERT
+from explore_rl.graph.exploration_graph import CURRENT as CURRENT_IDENTITY
+from explore_rl.graph.exploration_graph import FRONTIER as FRONTIER_IDENTITY
+from explore_rl.graph.features import feature_names, loop_lengths
 from explore_rl.trainer.config import DATASET_SCHEMA_FILE as SCHEMA_FILE
 from explore_rl.trainer.config import check_dataset_path
 
@@ -231,3 +235,67 @@ def check_same_schema(path: Path, stored: DatasetSchema, wanted: DatasetSchema) 
         if getattr(stored, key) != getattr(wanted, key):
             raise ValueError(f"{path}: the dataset has {key}={getattr(stored, key)} but this run "
                              f"{getattr(wanted, key)}: use the dataset's value or a new dataset folder")
+
+
+# ---------------------------------------------------------------------- derived columns
+
+
+def loop_length_column(rows: TensorDictBase, features: list[str]) -> tuple[torch.Tensor, torch.Tensor]:
+    """The ``loop_length`` column ``(B, max_nodes)`` of stored rows, from each stored graph
+    (the same :func:`~explore_rl.graph.features.loop_lengths` the env computes), and which
+    rows it is exact for: a graph stored at ``max_nodes`` rows may have lost pose nodes to
+    the encoding's cut (explore_rl/graph/encode.py), so its distances through the pose graph
+    are not the env's; those rows are marked False (their column is left 0)."""
+    identity = features.index("identity")
+    column = torch.zeros(rows["x"].shape[:2])
+    exact = rows["n_nodes"] < rows["x"].shape[1]
+    for row in torch.nonzero(exact).flatten().tolist():
+        n, e = int(rows["n_nodes"][row]), int(rows["n_edges"][row])
+        kind = rows["x"][row, :n, identity].numpy()
+        n_poses = int((kind != FRONTIER_IDENTITY).sum())
+        current = int(np.flatnonzero(kind == CURRENT_IDENTITY)[0])
+        edges, weights = with_zero_length_odometry(rows["edges"][row, :, :e].T.long().numpy(),
+                                                   rows["weights"][row, :e].double().numpy(), n_poses)
+        column[row, n_poses:n] = torch.from_numpy(loop_lengths(n_poses, edges, weights, current,
+                                                               np.arange(n_poses, n))).float()
+    return column, exact
+
+
+def with_zero_length_odometry(edges: np.ndarray, weights: np.ndarray, n_poses: int) -> tuple[np.ndarray, np.ndarray]:
+    """A stored edge list with the odometry edges it lost put back. Rows keep the edges of
+    the padded adjacency, where an edge of length 0 (two consecutive keyframes at one
+    place: a turn on the spot) is no entry; consecutive keyframes are always joined by an
+    odometry factor, so a missing ``(k, k + 1)`` pair is such an edge, of length 0."""
+    have = set(map(tuple, np.sort(edges, axis=1).tolist()))
+    missing = [(k, k + 1) for k in range(n_poses - 1) if (k, k + 1) not in have]
+    if not missing:
+        return edges, weights
+    return np.vstack([edges, np.array(missing)]), np.r_[weights, np.zeros(len(missing))]
+
+
+def derive_loops_dataset(source: DecisionDataset, out: str | Path, chunk: int = 512) -> tuple[DecisionDataset, int]:
+    """A ``graph.features=loops`` copy of an ``extended`` dataset at ``out``: every row
+    whose stored graph is whole (:func:`loop_length_column`), with the ``loop_length``
+    column appended; returns it and how many rows were left out (graphs cut at
+    ``max_nodes``). ValueError in one line if ``source`` does not hold the extended set."""
+    wanted, loops = list(feature_names("extended")), list(feature_names("loops"))
+    if source.schema.features != wanted:
+        raise ValueError(f"{source.path}: the dataset holds {', '.join(source.schema.features)}; "
+                         f"a loops copy needs graph.features=extended")
+    schema = DatasetSchema(max_nodes=source.schema.max_nodes, max_edges=source.schema.max_edges,
+                           features=loops, capacity=max(len(source), 1), scenes=list(source.schema.scenes))
+    target = DecisionDataset(out, schema)
+    if len(target):
+        raise ValueError(f"{target.path}: already holds {len(target)} decisions; give a new folder")
+    left_out = 0
+    for index in torch.arange(len(source)).split(chunk):
+        rows = source.rows(index)
+        column, exact = loop_length_column(rows, wanted)
+        left_out += int((~exact).sum())
+        rows = rows[exact]
+        if rows.shape[0] == 0:
+            continue
+        rows.set("x", torch.cat([rows["x"], column[exact].unsqueeze(-1)], dim=-1))
+        target.buffer.extend(rows)
+    target.buffer.dumps(target.path)
+    return target, left_out
