@@ -116,20 +116,21 @@ def test_missing_files_fail_with_one_line(tmp_path, capsys):
     assert err.startswith("error: ") and "nothing.pt: no checkpoint there" in err and "\n" not in err
 
 
-def test_an_extended_feature_policy_takes_frontier_extra_and_matches_the_env(tmp_path):
+@pytest.mark.parametrize("features", ["extended", "loops"])
+def test_an_extended_feature_policy_takes_frontier_extra_and_matches_the_env(tmp_path, features):
     """``graph.features=extended``: the caller passes the 6 extra frontier columns; deploy
     builds the env's graph and makes the env actor's choice; missing or unwanted extras
-    are named."""
-    config = load_config([*FAST, "graph.features=extended"])
+    are named. ``loops``: the same 6, and deploy computes ``loop_length`` from the arrays."""
+    config = load_config([*FAST, f"graph.features={features}"])
     path, learner = actor_file(tmp_path, config)
     policy = load_policy(path, max_nodes=config.graph.max_nodes)
     for decision, env_choice in env_decisions(config, learner, steps=3):
         arrays = arrays_of(decision)
-        extra = decision.graph.features[decision.graph.frontier_nodes, 4:]
+        extra = decision.graph.features[decision.graph.frontier_nodes, 4:10]
         made = policy.decide(**arrays, frontier_extra=extra)
         np.testing.assert_allclose(made.graph.features, decision.graph.features, rtol=1e-12, atol=1e-15)
         assert decision.actions[made.frontier].candidate == env_choice
-        with pytest.raises(ValueError, match="reads graph.features=extended: pass frontier_extra"):
+        with pytest.raises(ValueError, match=f"reads graph.features={features}: pass frontier_extra"):
             policy.decide(**arrays)
         with pytest.raises(ValueError, match=r"frontier_extra must be finite, shape"):
             policy.decide(**arrays, frontier_extra=extra[:, :3])

@@ -166,7 +166,7 @@ def loop_lengths(n_poses: int, edges: np.ndarray, weights: np.ndarray, current: 
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     weights = np.asarray(weights, dtype=float).reshape(-1)
     poses = (edges < n_poses).all(axis=1)
-    pairs, lengths = edges[poses], weights[poses]
+    pairs, lengths = shortest_of_parallel_edges(np.sort(edges[poses], axis=1), weights[poses], n_poses)
     graph = sp.coo_matrix((lengths, (pairs[:, 0], pairs[:, 1])), shape=(n_poses, n_poses)).tocsr()
     distance = dijkstra(graph, directed=False, indices=int(current))
     values = np.zeros(len(frontier_nodes))
@@ -182,3 +182,14 @@ def loop_lengths(n_poses: int, edges: np.ndarray, weights: np.ndarray, current: 
                              f"are not reachable from keyframe {current} through the pose graph")
         values[row] = reach.max()
     return values
+
+
+def shortest_of_parallel_edges(pairs: np.ndarray, lengths: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted pairs ``(E, 2)`` (``i <= j``) with one edge per pair, the shortest: a sparse
+    matrix would add the lengths of repeated pairs."""
+    if len(pairs) == 0:
+        return pairs, lengths
+    keys = pairs[:, 0] * n + pairs[:, 1]
+    order = np.lexsort((lengths, keys))
+    first = np.r_[True, keys[order][1:] != keys[order][:-1]]
+    return pairs[order][first], lengths[order][first]

@@ -157,10 +157,10 @@ def test_the_scratch_curve_places_each_snapshot_after_its_stage(tmp_path):
         f"scratch_curve.py: no validation log at {tmp_path / 'no.log'}: give the log scratch_curve.sh wrote")
 
 
-def revisit_dataset(path, count: int = 24):
-    """A small DecisionDataset of made-up decisions with the extended node features (chain graphs, random
-    features and rewards, frontier rows masked in, layouts 0-7 in turn), for revisit_probe.py; returns it and
-    EM's best rows."""
+def revisit_dataset(path, count: int = 24, features: str = "extended"):
+    """A small DecisionDataset of made-up decisions with the extended node features (or ``features``; chain
+    graphs, random features and rewards, frontier rows masked in, layouts 0-7 in turn), for revisit_probe.py;
+    returns it and EM's best rows."""
     import torch
 
     from explore_rl.config import load_config
@@ -169,7 +169,7 @@ def revisit_dataset(path, count: int = 24):
     from tests.trainer.test_dataset import schema_for
 
     torch.manual_seed(0)
-    names = feature_names("extended")
+    names = feature_names(features)
     decisions, best = [], []
     for index in range(count):
         n = 6 + index % 5
@@ -184,7 +184,7 @@ def revisit_dataset(path, count: int = 24):
                                      "action_rewards": rewards, "em_action": em_action,
                                      "layout": torch.tensor(index % 8)}, batch_size=[]))
         best.append(int(em_action))
-    dataset = DecisionDataset(path, schema_for(load_config(["graph.features=extended"]), capacity=count))
+    dataset = DecisionDataset(path, schema_for(load_config([f"graph.features={features}"]), capacity=count))
     dataset.append(decisions, scene="building")
     return decisions, best
 

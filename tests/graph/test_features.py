@@ -83,3 +83,81 @@ def test_disc_fraction_at_and_beyond_every_border():
                 inside = (yy - iy) ** 2 + (xx - ix) ** 2 <= radius ** 2
                 expected = float(mask[inside].mean()) if inside.any() else 0.0
                 assert disc_fraction(mask, np.array([iy, ix]), radius) == expected
+
+
+def shortest_paths_reference(n: int, edges: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """All-pairs shortest paths by Floyd-Warshall on a dense matrix (independent of scipy's Dijkstra)."""
+    distance = np.full((n, n), np.inf)
+    np.fill_diagonal(distance, 0.0)
+    for (i, j), w in zip(edges, weights):
+        distance[i, j] = distance[j, i] = min(distance[i, j], w)
+    for k in range(n):
+        distance = np.minimum(distance, distance[:, k:k + 1] + distance[k:k + 1, :])
+    return distance
+
+
+def test_loop_lengths_are_the_longest_pose_graph_distance_to_a_joined_keyframe():
+    """On random pose graphs (an odometry chain, some of it of length 0, plus loop edges), with frontiers joined
+    to random keyframes: each frontier's value is the largest Floyd-Warshall distance from the current keyframe
+    through the pose edges alone, 0 for a frontier joined to none or only to the current pose."""
+    from explore_rl.graph.features import loop_lengths
+
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        n_poses, n_frontiers = int(rng.integers(5, 40)), int(rng.integers(1, 6))
+        chain = np.column_stack([np.arange(n_poses - 1), np.arange(1, n_poses)])
+        loops = rng.integers(0, n_poses, size=(int(rng.integers(0, 6)), 2))
+        loops = loops[loops[:, 0] != loops[:, 1]]
+        pose_edges = np.vstack([chain, loops])
+        pose_weights = rng.uniform(0.0, 2.0, len(pose_edges)) * (rng.random(len(pose_edges)) > 0.2)
+        frontier_nodes = n_poses + np.arange(n_frontiers)
+        current = int(rng.integers(0, n_poses))
+        joined = [rng.choice(n_poses, size=int(rng.integers(0, 4)), replace=False) for _ in range(n_frontiers)]
+        joined[0] = np.r_[joined[0], current]  # the nearest frontier's edge to the current pose
+        frontier_edges = np.array([[k, node] for node, keys in zip(frontier_nodes, joined) for k in keys]).reshape(-1, 2)
+        # a frontier edge would be a shortcut between the keyframes it joins: it must not be used
+        edges = np.vstack([pose_edges, frontier_edges])
+        weights = np.r_[pose_weights, np.full(len(frontier_edges), 1e-3)]
+        expected_distance = shortest_paths_reference(n_poses, pose_edges, pose_weights)[current]
+        expected = [expected_distance[keys].max() if len(keys) else 0.0 for keys in joined]
+        got = loop_lengths(n_poses, edges, weights, current, frontier_nodes)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12, err_msg=f"trial {trial}")
+
+
+def test_a_revisited_keyframe_out_of_reach_is_a_one_line_error():
+    from explore_rl.graph.features import loop_lengths
+
+    # the first decision: one keyframe, no pose edge, the nearest frontier joined to it
+    assert loop_lengths(1, np.array([[0, 1]]), np.array([0.5]), 0, np.array([1])).tolist() == [0.0]
+
+    edges = np.array([[0, 1], [2, 3], [3, 4]])  # keyframes 0-1 and 2-3 not joined
+    with pytest.raises(ValueError, match="keyframes \\[3\\] are not reachable from keyframe 1"):
+        loop_lengths(4, edges, np.ones(3), 1, np.array([4]))
+
+
+def test_the_loops_graph_appends_loop_length_from_the_graphs_pose_edges():
+    """``graph.features=loops``: the extended columns unchanged, then ``loop_length``: 0 on poses, on a frontier
+    the largest pose-graph (Floyd-Warshall) distance from the current keyframe to a keyframe it is joined to."""
+    config = load_config(FAST)
+    env = make_env(config)
+    td = env.reset()
+    for _ in range(3):
+        td = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
+    state, actions = env.decision.state, env.decision.actions
+    context = env.em.decision_context(state)
+    extended = graph_from_state(state, context, actions, "extended", sensor_range=3.0)
+    loops = graph_from_state(state, context, actions, "loops", sensor_range=3.0)
+    assert loops.features.shape == (extended.num_nodes, 11) and feature_set_of(PAPER + FRONTIER_EXTRAS + ("loop_length",)) == "loops"
+    np.testing.assert_array_equal(loops.features[:, :10], extended.features)
+    n_poses = int((loops.candidate < 0).sum())
+    assert not loops.features[:n_poses, 10].any()
+    pose_edges = loops.edges[(loops.edges < n_poses).all(axis=1)]
+    distance = shortest_paths_reference(n_poses, pose_edges, loops.weights[(loops.edges < n_poses).all(axis=1)])
+    for node in loops.frontier_nodes:
+        joined = loops.edges[(loops.edges == node).any(axis=1)].ravel()
+        joined = joined[joined < n_poses]
+        expected = distance[loops.current, joined].max() if len(joined) else 0.0
+        assert loops.features[node, 10] == pytest.approx(expected, abs=1e-9)
+    revisiting = [k for k, a in enumerate(actions) if a.prediction.revisits]
+    assert all(loops.features[loops.frontier_nodes[k], 10] >= 0.0 for k in revisiting)
+    assert len(scales_for(11)) == 11

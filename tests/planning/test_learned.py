@@ -103,19 +103,21 @@ def test_a_missing_actor_file_fails_with_one_line(tmp_path):
     assert "\n" not in message and str(missing) in message and "explore-rl-train" in message
 
 
-def test_extended_features_are_the_environments_too(tmp_path):
-    """``graph.features=extended``: the runner's cheaper graph (landmarks near the frontiers
-    only) equals the env's (the fully fused map), and the policy reads the actor's set."""
-    config = load_config([*FAST, "graph.features=extended"])
+@pytest.mark.parametrize("features, width", [("extended", 10), ("loops", 11)])
+def test_extended_features_are_the_environments_too(tmp_path, features, width):
+    """``graph.features=extended`` (and ``loops``, its ``loop_length`` too): the runner's cheaper
+    graph (landmarks near the frontiers only) equals the env's (the fully fused map), and the
+    policy reads the actor's set."""
+    config = load_config([*FAST, f"graph.features={features}"])
     path, learner = actor_file(tmp_path, config)
     policy = make_policy(PolicyConfig("learned", checkpoint=str(path)), np.random.default_rng(0),
                          planning=config.planning, graph=load_config(FAST).graph)
-    assert policy.features == "extended"
+    assert policy.features == features
     for decision, env_choice in env_decisions(config, learner, steps=4):
         state = decision.state
         graph = graph_features(state, decision.actions, policy.virtual_map(state.session.occupancy.grid),
-                               config.planning.em.backend, "extended")
-        assert graph.features.shape[1] == 10
+                               config.planning.em.backend, features)
+        assert graph.features.shape[1] == width
         np.testing.assert_allclose(graph.features, decision.graph.features, rtol=1e-9, atol=1e-12)
         assert policy.choose(state) == env_choice
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict
 
+import numpy as np
 import pytest
 import torch
 from torchrl.data import LazyMemmapStorage, ReplayBuffer
@@ -171,3 +172,59 @@ def test_a_run_with_train_dataset_appends_its_decisions_and_a_new_run_starts_fro
     assert fresh.update(batch.clone()).loss_replay is None
     assert len(DecisionDataset(path)) == 2 * count
     assert fresh.labels.state_dict()["decisions"] == 2 * count
+
+
+LOOPS_ENV = ["scene=street", "slam=model", "planning.actions.max_frontiers=4", "explore.travel_budget=40",
+             "graph.features=loops"]
+
+
+def test_a_loops_copy_of_an_extended_dataset_has_the_envs_loop_length(tmp_path):
+    """Real decisions of a ``graph.features=loops`` env, stored as an extended dataset would hold them (the
+    first 10 columns): the derived copy's ``loop_length`` equals the env's (float32 storage), the other columns
+    are the stored ones; a graph stored at ``max_nodes`` rows is left out and counted."""
+    from explore_rl.envs import make_env
+    from explore_rl.envs.keys import NEAREST_ACTION
+    from explore_rl.trainer.dataset import derive_loops_dataset
+
+    config = load_config(LOOPS_ENV)
+    env = make_env(config)
+    td, decisions = env.reset(), []
+    for _ in range(6):
+        decisions += compact_decisions(td.unsqueeze(0))
+        td = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
+    loop_column = [d["x"][:, 10].clone() for d in decisions]
+    assert any(bool((column > 0).any()) for column in loop_column)  # some frontier closes a loop
+    for d in decisions:
+        d.set("x", d["x"][:, :10].clone())
+    extended = list(feature_names("extended"))
+    largest = max(d["x"].shape[0] for d in decisions)
+    source = DecisionDataset(tmp_path / "ext", DatasetSchema(max_nodes=largest, max_edges=2048, features=extended,
+                                                             capacity=20))
+    assert source.append(decisions, scene="street") == len(decisions)
+    copy, left_out = derive_loops_dataset(source, tmp_path / "loops")
+    cut = [d["x"].shape[0] == largest for d in decisions]
+    assert left_out == sum(cut) and len(copy) == len(decisions) - sum(cut)
+    assert copy.schema.features == list(feature_names("loops")) and copy.schema.scenes == ["street"]
+    rows = copy.rows()
+    kept = [k for k, was_cut in enumerate(cut) if not was_cut]
+    for row, k in enumerate(kept):
+        n = decisions[k]["x"].shape[0]
+        torch.testing.assert_close(rows["x"][row, :n, :10], decisions[k]["x"].float(), rtol=0, atol=0)
+        torch.testing.assert_close(rows["x"][row, :n, 10], loop_column[k].float(), rtol=1e-5, atol=1e-5)
+    with pytest.raises(ValueError, match="a loops copy needs graph.features=extended"):
+        derive_loops_dataset(copy, tmp_path / "again")
+    with pytest.raises(ValueError, match="already holds"):
+        derive_loops_dataset(source, tmp_path / "loops")
+
+
+def test_stored_edges_get_back_the_zero_length_odometry_the_adjacency_dropped():
+    """Consecutive keyframes at one place have an odometry edge of length 0, which a padded adjacency cannot
+    hold; the missing ``(k, k + 1)`` pairs come back at length 0, and present ones are not repeated."""
+    from explore_rl.trainer.dataset import with_zero_length_odometry
+
+    edges = np.array([[0, 1], [2, 3], [1, 3], [3, 5]])  # odometry (1, 2) and (3, 4) missing; (3, 5) joins a frontier
+    weights = np.array([1.0, 2.0, 0.5, 1.5])
+    got_edges, got_weights = with_zero_length_odometry(edges, weights, n_poses=5)
+    assert sorted(map(tuple, got_edges.tolist())) == [(0, 1), (1, 2), (1, 3), (2, 3), (3, 4), (3, 5)]
+    added = {tuple(e): w for e, w in zip(got_edges.tolist(), got_weights)}
+    assert added[(1, 2)] == 0.0 and added[(3, 4)] == 0.0 and added[(0, 1)] == 1.0

@@ -1,0 +1,88 @@
+"""loop_feature/probe.py on a small made-up loops dataset and a tiny extended actor: the widened actor starts as
+the actor (the same figures, equal to ones computed here from its logits), both arms train and write actor
+files, the pair's difference is loops - extended; bad arguments are refused in one line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.test_selection_v6 import revisit_dataset
+
+SCRIPT = ROOT / "benchmarks" / "results" / "loop_feature" / "probe.py"
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, cwd=ROOT)
+
+
+@pytest.fixture()
+def files(tmp_path):
+    from explore_rl.config import load_config
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    decisions, best = revisit_dataset(tmp_path / "data", features="loops")
+    actor_path, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
+    return tmp_path, decisions, best, actor_path
+
+
+def test_the_widened_actor_starts_as_the_actor_and_both_arms_train(files):
+    from explore_rl.models.actor_file import load_actor
+    from explore_rl.trainer.dataset import DecisionDataset, padded_batch
+
+    tmp_path, decisions, best, actor_path = files
+    result = run("--arm", "widened", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path),
+                 "--steps", "2", "--every", "2", "--in-sample", "5", "--out", str(tmp_path / "out"))
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    rows, pair, summary = lines[:4], lines[4], lines[5]
+    assert [(row["actor"], row["steps"]) for row in rows] == [
+        ("widened_extended_seed0", 0), ("widened_extended_seed0", 2),
+        ("widened_loops_seed0", 0), ("widened_loops_seed0", 2)]
+    assert rows[2]["held_out"] == rows[0]["held_out"] and rows[2]["in_sample"] == rows[0]["in_sample"]
+    probe = [i for i, d in enumerate(decisions) if int(d["layout"]) % 4 == 3]
+    assert summary["probe_decisions"] == len(probe) and summary["probe_layouts"] == 2
+    actor, _ = load_actor(actor_path)
+    batch = padded_batch(DecisionDataset(tmp_path / "data").rows(torch.tensor(probe)), list(range(10)))
+    with torch.no_grad():
+        logits = actor(batch["x"], batch["adj"], batch["node_mask"]).numpy()
+    gains, stakes, same = [], [], []
+    for row, index in enumerate(probe):
+        rewards, mask = decisions[index]["action_rewards"].numpy(), decisions[index]["action_mask"].numpy()
+        pick = int(np.flatnonzero(mask)[np.argmax(logits[row, :len(mask)][mask])])
+        gains.append(rewards[pick] - rewards[mask].mean())
+        stakes.append(rewards[best[index]] - rewards[mask].mean())
+        same.append(pick == best[index])
+    assert rows[0]["held_out"]["same_choice"] == pytest.approx(np.mean(same), abs=1e-4)
+    assert rows[0]["held_out"]["gap_closed"] == pytest.approx(sum(gains) / sum(stakes), abs=1e-3)
+    difference = pair["loops"]["held_out"]["gap_closed"] - pair["extended"]["held_out"]["gap_closed"]
+    assert pair["loops_minus_extended"]["gap_closed"] == pytest.approx(difference, abs=2e-4)
+    low, high = pair["loops_minus_extended"]["gap_closed_ci"]
+    assert low <= high
+    for feature_set, width in (("extended", 10), ("loops", 11)):
+        saved = torch.load(pair[feature_set]["actor"], weights_only=False)
+        assert saved["features"][-1] == ("loop_length" if feature_set == "loops" else "landmark_uncertainty")
+        assert len(saved["features"]) == width
+
+
+def test_the_scratch_arm_trains_a_pair_per_seed(files):
+    tmp_path, _, _, actor_path = files
+    result = run("--arm", "scratch", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path),
+                 "--seeds", "0", "1", "--steps", "1", "--every", "1", "--in-sample", "5", "--out", str(tmp_path / "out"))
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout.strip().splitlines()[-1])
+    assert [pair["seed"] for pair in summary["pairs"]] == [0, 1]
+    assert all((tmp_path / "out" / f"scratch_{s}_seed{k}.pt").is_file() for s in ("extended", "loops") for k in (0, 1))
+
+
+@pytest.mark.parametrize("bad", [["--steps", "0"], ["--actor", "/nonexistent.pt"], ["--dataset", "/nonexistent/data"]])
+def test_the_probe_refuses_bad_arguments_in_one_line(bad):
+    result = run("--arm", "widened", *bad)
+    assert result.returncode != 0 and "Traceback" not in result.stderr
+    assert bad[0] in result.stderr.strip().splitlines()[-1]
