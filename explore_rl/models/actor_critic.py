@@ -143,6 +143,23 @@ def greedy_row(logits: Tensor, action_mask: Tensor) -> int:
     return int(logits.masked_fill(~action_mask, float("-inf")).argmax())
 
 
+INPUT_WEIGHT = "unet.down_convs.0.lin.weight"  # the g-U-Net's first layer: (hidden, node features)
+FEATURE_SCALE = "scale.scale"
+
+
+def widened_inputs(weights: dict[str, Tensor], scale: Tensor) -> dict[str, Tensor]:
+    """A scorer's ``weights`` for a wider node-feature set whose first columns are its own
+    (e.g. ``extended`` -> ``loops``): the input layer's weights of the new columns are 0, so
+    it scores every graph as before until it trains; ``scale``: the wider set's feature
+    scales, of which the shared columns keep the weights' own."""
+    weight, own_scale = weights[INPUT_WEIGHT], weights[FEATURE_SCALE]
+    extra = len(scale) - weight.shape[1]
+    if extra < 0:
+        raise ValueError(f"cannot widen {weight.shape[1]} node features to {len(scale)}")
+    return {**weights, INPUT_WEIGHT: torch.cat([weight, weight.new_zeros(weight.shape[0], extra)], dim=1),
+            FEATURE_SCALE: torch.cat([own_scale, scale[len(own_scale):].to(own_scale)])}
+
+
 def masked_mean(values: Tensor, mask: Tensor) -> Tensor:
     """Mean of ``values[..., N]`` over the True entries of ``mask``; 0 for an empty graph."""
     weights = mask.to(values.dtype)

@@ -45,7 +45,7 @@ from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env, policy_seed
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, WORKER
 from explore_rl.graph.features import feature_names
-from explore_rl.models.actor_critic import make_actor, make_critic
+from explore_rl.models.actor_critic import FEATURE_SCALE, make_actor, make_critic, widened_inputs
 from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
 from explore_rl.models.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
                                            save_checkpoint)
@@ -130,15 +130,21 @@ class Learner:
     def load_initial_actor(self, path: str | Path) -> None:
         """Start from the actor of an actor file or checkpoint (``train.init_actor``), e.g.
         an offline-distilled one that A2C then fine-tunes; the critic starts fresh. The
-        file must read this run's node features with this run's model (one-line error)."""
+        file must be of this run's model and read this run's node features or the first of
+        them (e.g. an ``extended`` actor in a ``loops`` run: the new columns start with weight
+        0, so it decides as before until it trains); else a one-line error."""
         actor_file = read_actor_file(path)
         wanted = list(feature_names(self.config.graph.features))
-        if actor_file.features != wanted:
+        if actor_file.features != wanted[:len(actor_file.features)]:
             raise CheckpointError(f"train.init_actor={path}: the actor reads graph.features="
                                   f"{actor_file.feature_set}, this run {self.config.graph.features}: "
                                   f"set graph.features={actor_file.feature_set}")
-        graph_actor = build_actor(path, actor_file, self.config.model)  # model and weights checked
-        self.actor.load_state_dict({TRAINING_PREFIX + key: value for key, value in graph_actor.state_dict().items()})
+        weights = build_actor(path, actor_file, self.config.model).state_dict()  # model and weights checked
+        if len(wanted) > len(actor_file.features):
+            weights = widened_inputs(weights, self.actor.state_dict()[TRAINING_PREFIX + FEATURE_SCALE])
+            log.info("%s reads graph.features=%s: widened to %s with zero weights on %s", path,
+                     actor_file.feature_set, self.config.graph.features, ", ".join(wanted[len(actor_file.features):]))
+        self.actor.load_state_dict({TRAINING_PREFIX + key: value for key, value in weights.items()})
         self.sync_acting_actor()
         log.info("initial actor weights from %s", path)
 

@@ -13,6 +13,7 @@ from explore_rl.config import load_config
 from explore_rl.envs import make_env
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, NEAREST_ACTION
 from explore_rl.models.actor_critic import Dropout
+from explore_rl.models.actor_file import TRAINING_PREFIX
 from explore_rl.trainer.a2c import Learner, TrainingRun, decision_stakes, make_collector, train
 from explore_rl.models.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
 
@@ -379,11 +380,34 @@ def test_a_new_run_starts_from_the_initial_actor_and_a_mismatch_is_one_line(tmp_
         assert torch.equal(started[key], value), key
     fresh = Learner(config_for(), make_env(config).action_spec).actor.state_dict()
     assert any(not torch.equal(fresh[key], source[key]) for key in source)  # a real change
-    with pytest.raises(CheckpointError, match="graph.features=paper, this run extended"):
-        TrainingRun(config_for(f"train.init_actor={first / 'checkpoints' / 'last.pt'}", "graph.features=extended"),
-                    tmp_path / "third")
+    extended = tmp_path / "extended"  # a wider actor cannot start a narrower run
+    train(config_for("train.frames=5", "graph.features=extended"), extended)
+    with pytest.raises(CheckpointError, match="graph.features=extended, this run paper"):
+        TrainingRun(config_for(f"train.init_actor={extended / 'checkpoints' / 'last.pt'}"), tmp_path / "third")
     with pytest.raises(CheckpointError, match="hidden"):
         TrainingRun(config_for(f"train.init_actor={first / 'checkpoints' / 'last.pt'}", "model.hidden=16"),
                     tmp_path / "fourth")
     with pytest.raises(ValueError, match="train.init_actor=.*no such file"):
         config_for(f"train.init_actor={tmp_path / 'missing.pt'}")
+
+
+def test_an_actor_of_fewer_node_features_starts_a_wider_run_deciding_as_before(tmp_path, batch):
+    """train.init_actor of a paper-feature actor in an ``extended`` run: the new columns' input weights start at
+    0, so on any graph (the extra columns filled with arbitrary values) the logits are the narrow actor's on its
+    own columns; the feature scales of the shared columns are the file's."""
+    first = tmp_path / "first"
+    train(config_for("train.frames=5", "algo.distill_coef=1.0", "algo.a2c_coef=0.0"), first)
+    checkpoint = first / "checkpoints" / "last.pt"
+    narrow = Learner(config_for(f"train.init_actor={checkpoint}"))
+    narrow.load_initial_actor(checkpoint)
+    wide = Learner(config_for("graph.features=extended"))
+    wide.load_initial_actor(checkpoint)
+    flat = batch.reshape(-1)[:4]
+    extra = torch.rand(*flat["x"].shape[:-1], 6) * 5.0
+    widened = flat.clone().set("x", torch.cat([flat["x"], extra], dim=-1))
+    with torch.no_grad():
+        expected = narrow.actor.get_dist(flat).logits
+        got = wide.actor.get_dist(widened).logits
+    torch.testing.assert_close(got, expected, rtol=1e-5, atol=1e-5)
+    scale = wide.actor.state_dict()[TRAINING_PREFIX + "scale.scale"]
+    assert torch.equal(scale[:4], narrow.actor.state_dict()[TRAINING_PREFIX + "scale.scale"]) and len(scale) == 10

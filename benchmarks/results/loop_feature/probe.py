@@ -31,7 +31,7 @@ import torch
 
 from explore_rl.config import load_config
 from explore_rl.graph.features import feature_names
-from explore_rl.models.actor_file import TRAINING_PREFIX, read_actor_file
+from explore_rl.models.actor_file import read_actor_file
 from explore_rl.models.checkpoint import CheckpointError
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DecisionDataset
@@ -44,7 +44,6 @@ from revisit_probe import greedy_learner  # noqa: E402
 
 DATASET = "/work/runs/data_scratch_loops"
 ACTOR = "policies/buildings_sparse_em_choice/actor.pt"
-FIRST_LAYER = "unet.down_convs.0.lin.weight"  # the g-U-Net's input layer: (hidden, node features)
 FEATURE_SETS = ("extended", "loops")
 
 
@@ -56,20 +55,11 @@ def scratch_learner(feature_set: str, model, lr: float) -> Learner:
 
 
 def widened_learner(actor: str, lr: float) -> Learner:
-    """The ``extended`` actor file ``actor`` as a ``loops`` learner: every weight copied, the input layer's new
-    column 0, so its logits equal the actor's until it trains."""
-    narrow = greedy_learner(actor)
+    """The ``extended`` actor file ``actor`` as a ``loops`` learner (``Learner.load_initial_actor``: every
+    weight copied, the input layer's new column 0), so its logits equal the actor's until it trains."""
     wide = scratch_learner("loops", read_actor_file(actor).model, lr)
-    state = wide.actor.state_dict()
-    for key, value in narrow.actor.state_dict().items():
-        if key == TRAINING_PREFIX + FIRST_LAYER:
-            state[key] = torch.cat([value, torch.zeros(value.shape[0], 1)], dim=1)
-        elif key.endswith("scale.scale"):
-            assert torch.equal(state[key][: len(value)], value), "the shared columns' scales differ"
-        else:
-            state[key] = value
-    wide.actor.load_state_dict(state)
-    wide.sync_acting_actor()
+    wide.load_initial_actor(actor)
+    wide.set_training(False)
     return wide
 
 
