@@ -22,7 +22,7 @@ encoding, forward) cost nothing. ``ms_top{k}`` times the hybrid ``policy.em_top_
 actor shortlists k frontiers, EM picks among them; k in ``SHORTLISTS``) on the same states,
 ``em_over_top{k}`` EM over it. One torch thread, as ``explore-rl-eval``'s workers.
 
-    python benchmarks/bench_decision_real.py [--quick | --smoke]
+    python benchmarks/bench_decision_real.py [--quick | --smoke] [--actor FILE]
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ import torch  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.graph.encode import encode  # noqa: E402
 from explore_rl.graph.exploration_graph import action_frontiers, factor_edges, graph_from_estimates  # noqa: E402
-from explore_rl.graph.features import frontier_extras  # noqa: E402
+from explore_rl.graph.features import frontier_extras, has_loop_length  # noqa: E402
 from explore_rl.planning.actions import select_actions  # noqa: E402
 from explore_rl.planning.em import EMPlanner, pose_covariances  # noqa: E402
 from explore_rl.planning.learned import (  # noqa: E402
@@ -81,7 +81,8 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
     extras = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near], covs, radius)
     frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy)
     edges = factor_edges(session.graph.edges)
-    graph = graph_from_estimates(state, actions, poses, pose_covs, frontier_covs, edges, extras)
+    loops = has_loop_length(policy.features)  # graph.features=loops: loop_length from the graph's own edges
+    graph = graph_from_estimates(state, actions, poses, pose_covs, frontier_covs, edges, extras, loops)
     compact, padded = encode(graph, policy.max_nodes, compact=True), encode(graph, policy.max_nodes)
 
     def reference_landmarks() -> None:  # the frontiers' landmarks, then those near them, full distance matrices
@@ -96,7 +97,8 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
         "landmarks": lambda: landmark_covariances(vmap, poses, pose_covs, blocked, landmarks),
         "landmarks_reference": reference_landmarks,
         "extras": lambda: frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near], covs, radius),
-        "graph_build": lambda: graph_from_estimates(state, actions, poses, pose_covs, frontier_covs, edges, extras),
+        "graph_build": lambda: graph_from_estimates(state, actions, poses, pose_covs, frontier_covs, edges, extras,
+                                                    loops),
         "encode": lambda: encode(graph, policy.max_nodes, compact=True),
         "encode_reference": lambda: encode(graph, policy.max_nodes),
         "forward": lambda: actor_logits(policy.actor, compact),
@@ -204,8 +206,14 @@ def print_parts(scenes: dict[str, dict]) -> None:
         print(f"{name:12s}" + "".join(cells))
 
 
+def add_actor(parser) -> None:
+    parser.add_argument("--actor", default=None, help="the actor file that drives and decides (default: the shipped one)")
+
+
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+    args = parse_args(__doc__.splitlines()[0], add_arguments=add_actor)
+    if args.actor is not None and not Path(args.actor).is_file():
+        sys.exit(f"--actor {args.actor}: no such file")
     torch.set_num_threads(1)
     if args.smoke:  # the office with the model front end: seconds, figures meaningless
         plan, repeats, extra = [("office", 2, 1)], 1, ["slam=model"]
@@ -213,6 +221,8 @@ def main() -> None:
         plan, repeats, extra = [("street", 12, 4)], 2, []
     else:
         plan, repeats, extra = [("street", 60, 3), ("garage", 60, 3)], 3, []
+    if args.actor is not None:
+        extra = [*extra, f"policy.checkpoint={args.actor}"]
     print(f"{'scene':7s} {'dec':>3s} {'poses':>5s} {'nodes':>6s} {'ms state':>8s} {'ms EM':>8s} {'learned':>8s} "
           f"{'ref':>8s} (actions / graph / forward) EM/learned equivalent (features / logits / probabilities)")
     rows = [row for scene, decisions, every in plan for row in explore(scene, decisions, every, repeats, extra)]
@@ -220,7 +230,7 @@ def main() -> None:
     for scene, s in scenes.items():
         print(scene, s)
     print_parts(scenes)
-    emit({"benchmark": "decision_real", "quick": args.quick, "smoke": args.smoke,
+    emit({"benchmark": "decision_real", "quick": args.quick, "smoke": args.smoke, "actor": args.actor,
           **summary(rows), "scenes": scenes,
           "same_choice": all(r["same_choice"] for r in rows),
           "equivalent": all(r["equivalent"] for r in rows),

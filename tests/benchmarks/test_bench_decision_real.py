@@ -29,3 +29,15 @@ def test_bench_decision_real_smoke(tmp_path: Path) -> None:
     assert result["em_over_shared"] >= result["em_over_learned"]  # the bound: the learned-only parts at 0 ms
     assert result["ms_em"] > 0 and result["ms_learned"] > 0 and result["ms_learned_reference"] > 0
     assert result["ms_top2"] > 0 and abs(result["em_over_top2"] - result["ms_em"] / result["ms_top2"]) <= 0.011
+
+
+def test_bench_decision_real_takes_a_loops_actor(tmp_path: Path) -> None:
+    """``--actor`` of a ``graph.features=loops`` actor: it drives and decides, its parts are timed with the
+    ``loop_length`` column, and the fast path is still the reference's decision."""
+    from explore_rl.config import load_config
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    path, _ = actor_file(tmp_path / "loops", load_config([*TINY_MODEL, "graph.features=loops"]))
+    result = run_script("benchmarks/bench_decision_real.py", "--smoke", "--actor", str(path), cwd=tmp_path)
+    assert result["actor"] == str(path) and result["states"] == 2
+    assert result["same_choice"] is True and result["equivalent"] is True
