@@ -283,7 +283,7 @@ def derive_loops_dataset(source: DecisionDataset, out: str | Path, chunk: int = 
         raise ValueError(f"{source.path}: the dataset holds {', '.join(source.schema.features)}; "
                          f"a loops copy needs graph.features=extended")
     schema = DatasetSchema(max_nodes=source.schema.max_nodes, max_edges=source.schema.max_edges,
-                           features=loops, capacity=max(len(source), 1), scenes=list(source.schema.scenes))
+                           features=loops, capacity=source.schema.capacity, scenes=list(source.schema.scenes))
     target = DecisionDataset(out, schema)
     if len(target):
         raise ValueError(f"{target.path}: already holds {len(target)} decisions; give a new folder")

@@ -205,6 +205,7 @@ def test_a_loops_copy_of_an_extended_dataset_has_the_envs_loop_length(tmp_path):
     cut = [d["x"].shape[0] == largest for d in decisions]
     assert left_out == sum(cut) and len(copy) == len(decisions) - sum(cut)
     assert copy.schema.features == list(feature_names("loops")) and copy.schema.scenes == ["street"]
+    assert copy.schema.capacity == source.schema.capacity  # a copy a run can grow (train.dataset)
     rows = copy.rows()
     kept = [k for k, was_cut in enumerate(cut) if not was_cut]
     for row, k in enumerate(kept):
