@@ -5,11 +5,11 @@
 set -e
 cd /work/main
 RUN=${RUN:-/work/runs/lf_dagger}
+DATA=${RUN}_data  # outside the run folder (a new run needs an empty one)
 RESUME=false; [ -e $RUN/checkpoints/last.pt ] && RESUME=true
-if [ ! -e $RUN/data/dataset.json ]; then
-  mkdir -p $RUN
+if [ ! -e $DATA/dataset.json ]; then
   .venv/bin/python -c "from explore_rl.trainer.dataset import DecisionDataset, derive_loops_dataset as d; \
-print(d(DecisionDataset('/work/runs/data_scratch'), '$RUN/data'))"
+print(d(DecisionDataset('/work/runs/data_scratch'), '$DATA')[1], 'graphs cut at max_nodes left out')"
 fi
 nice -n 5 .venv/bin/explore-rl-train scene=building slam=model graph.features=loops \
   scene.building.lot_probability=0.5 scene.building.size_min=22.0 scene.building.lot_gap_probability=0.5 \
@@ -17,4 +17,4 @@ nice -n 5 .venv/bin/explore-rl-train scene=building slam=model graph.features=lo
   "env.train_layouts=[0,1000]" collector.workers=2 train.max_minutes=${MINUTES:-55} train.snapshot_every=40 \
   algo.a2c_coef=0 algo.distill_coef=1 algo.distill_target=em_choice algo.dagger_steps=8 algo.lr=3e-4 \
   train.init_actor=benchmarks/results/loop_feature/candidate_widened_loops_actor.pt \
-  train.dataset=$RUN/data train.progress_bar=false out=$RUN resume=$RESUME "$@"
+  train.dataset=$DATA train.progress_bar=false out=$RUN resume=$RESUME "$@"
