@@ -39,7 +39,16 @@ from explore_rl.trainer.offline import offline_config, save_offline_actor, train
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "stakes_distill"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
-from probe import bootstrap, clusters, figures, gap_closed, per_decision, split  # noqa: E402
+from probe import (  # noqa: E402
+    add_training_arguments,
+    bootstrap,
+    check_training_arguments,
+    clusters,
+    figures,
+    gap_closed,
+    per_decision,
+    split,
+)
 from revisit_probe import greedy_learner  # noqa: E402
 
 DATASET = "/work/runs/data_scratch_loops"
@@ -99,15 +108,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--dataset", default=DATASET, help="a graph.features=loops DecisionDataset")
     parser.add_argument("--actor", default=ACTOR, help="the extended actor file: the network (scratch) or the start")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0], help="training seeds (one pair each)")
-    parser.add_argument("--steps", type=int, default=3000, help="Adam steps per actor (>= 1)")
-    parser.add_argument("--every", type=int, default=1000, help="steps between measurements (>= 1)")
-    parser.add_argument("--lr", type=float, default=1e-3, help="Adam step size (> 0)")
-    parser.add_argument("--in-sample", type=int, default=2400, help="training decisions measured in sample")
+    add_training_arguments(parser, steps=3000, every=1000, lr=1e-3)
+    parser.add_argument("--in-sample", type=int, default=2400, help="training decisions measured in sample (>= 1)")
     parser.add_argument("--out", default="/work/runs/loop_feature", help="folder of the final actor files")
     args = parser.parse_args(argv)
-    if args.steps < 1 or args.every < 1 or not args.lr > 0 or args.in_sample < 1:
-        parser.error(f"--steps {args.steps} --every {args.every} --lr {args.lr} --in-sample {args.in_sample}: "
-                     "give steps, every, in-sample >= 1 and lr > 0")
+    check_training_arguments(parser, args)
+    if args.in_sample < 1:
+        parser.error(f"--in-sample {args.in_sample}: give at least 1")
     try:
         actor_file = read_actor_file(args.actor)
     except (ValueError, CheckpointError) as error:

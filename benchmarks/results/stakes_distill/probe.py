@@ -99,18 +99,28 @@ def figures(scores: dict, groups: list[np.ndarray]) -> dict:
             "revisits": round(float(scores["revisits"].mean()), 4)}
 
 
+def add_training_arguments(parser: argparse.ArgumentParser, steps: int, every: int, lr: float) -> None:
+    """``--steps``, ``--every`` and ``--lr`` of an offline probe (shared by the probes of later sessions)."""
+    parser.add_argument("--steps", type=int, default=steps, help="Adam steps per actor (>= 1)")
+    parser.add_argument("--every", type=int, default=every, help="steps between probe measurements (>= 1)")
+    parser.add_argument("--lr", type=float, default=lr, help="Adam step size (> 0)")
+
+
+def check_training_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """One line naming the values if a step count is below 1 or the step size not positive."""
+    if args.steps < 1 or args.every < 1 or not args.lr > 0:
+        parser.error(f"--steps {args.steps} --every {args.every} --lr {args.lr}: give steps, every >= 1, lr > 0")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default=DATASET, help="a DecisionDataset folder (EM's rewards of every frontier)")
     parser.add_argument("--actor", default=ACTOR, help="the actor file both targets start from")
-    parser.add_argument("--steps", type=int, default=2000, help="Adam steps per target (>= 1)")
-    parser.add_argument("--every", type=int, default=500, help="steps between probe measurements (>= 1)")
-    parser.add_argument("--lr", type=float, default=3e-4, help="Adam step size (> 0)")
+    add_training_arguments(parser, steps=2000, every=500, lr=3e-4)
     parser.add_argument("--seed", type=int, default=0, help="minibatch order")
     parser.add_argument("--out", default="runs/stakes_distill", help="folder of the final actor files")
     args = parser.parse_args(argv)
-    if args.steps < 1 or args.every < 1 or not args.lr > 0:
-        parser.error(f"--steps {args.steps} --every {args.every} --lr {args.lr}: give steps, every >= 1, lr > 0")
+    check_training_arguments(parser, args)
     try:  # every input checked before anything trains
         dataset = DecisionDataset(args.dataset)
     except ValueError as error:
