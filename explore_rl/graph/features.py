@@ -1,4 +1,4 @@
-"""Node feature sets of the exploration graph: the paper's four, and an extended set.
+"""Node feature sets of the exploration graph: the paper's four, an extended set, and ``loops``.
 
 ``graph.features=paper`` gives the paper's ``[uncertainty, distance, bearing, identity]``
 (explore_rl/graph/exploration_graph.py). ``extended`` appends per-frontier columns that EM's
