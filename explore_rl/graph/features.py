@@ -169,18 +169,20 @@ def loop_lengths(n_poses: int, edges: np.ndarray, weights: np.ndarray, current: 
     pairs, lengths = shortest_of_parallel_edges(np.sort(edges[poses], axis=1), weights[poses], n_poses)
     graph = sp.coo_matrix((lengths, (pairs[:, 0], pairs[:, 1])), shape=(n_poses, n_poses)).tocsr()
     distance = dijkstra(graph, directed=False, indices=int(current))
+    keyframe, node = np.sort(edges[~poses], axis=1).T  # frontier edges: (keyframe, frontier node)
+    frontier_nodes = np.asarray(frontier_nodes, dtype=np.int64)
+    row_of = np.full(max(int(node.max(initial=-1)), int(frontier_nodes.max(initial=-1))) + 1, -1)
+    row_of[frontier_nodes] = np.arange(len(frontier_nodes))
+    rows = row_of[node]
+    counted = (rows >= 0) & (keyframe < n_poses)  # edges between a keyframe and a frontier asked for
+    keyframe, rows = keyframe[counted], rows[counted]
+    reach = distance[keyframe]
+    if not np.isfinite(reach).all():
+        bad = ~np.isfinite(reach)
+        raise ValueError(f"frontier node {int(frontier_nodes[rows[bad][0]])}: keyframes {keyframe[bad].tolist()} "
+                         f"are not reachable from keyframe {current} through the pose graph")
     values = np.zeros(len(frontier_nodes))
-    for row, node in enumerate(np.asarray(frontier_nodes, dtype=np.int64)):
-        joined = edges[(edges == node).any(axis=1)]
-        keyframes = joined[joined != node]
-        keyframes = keyframes[keyframes < n_poses]
-        if len(keyframes) == 0:
-            continue
-        reach = distance[keyframes]
-        if not np.isfinite(reach).all():
-            raise ValueError(f"frontier node {node}: keyframes {keyframes[~np.isfinite(reach)].tolist()} "
-                             f"are not reachable from keyframe {current} through the pose graph")
-        values[row] = reach.max()
+    np.maximum.at(values, rows, reach)
     return values
 
 
