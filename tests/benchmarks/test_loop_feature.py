@@ -86,3 +86,30 @@ def test_the_probe_refuses_bad_arguments_in_one_line(bad):
     result = run("--arm", "widened", *bad)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert bad[0] in result.stderr.strip().splitlines()[-1]
+
+
+def test_one_feature_set_with_another_network(files):
+    tmp_path, _, _, actor_path = files
+    result = run("--arm", "scratch", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path),
+                 "--feature-sets", "loops", "--dropout", "0", "--hidden", "6", "--steps", "2", "--every", "1",
+                 "--in-sample", "5", "--out", str(tmp_path / "out"))
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    assert [(row["actor"], row["steps"]) for row in lines[:3]] == [
+        ("scratch_loops_seed0", 0), ("scratch_loops_seed0", 1), ("scratch_loops_seed0", 2)]
+    pair, summary = lines[3], lines[4]
+    assert "loops" in pair and "extended" not in pair and "loops_minus_extended" not in pair
+    assert summary["model"]["dropout"] == 0.0 and summary["model"]["hidden"] == 6
+    saved = torch.load(pair["loops"]["actor"], weights_only=False)
+    assert len(saved["features"]) == 11
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--arm", "widened", "--dropout", "0"], "--dropout/--hidden change the scratch arm"),
+    (["--arm", "scratch", "--dropout", "1.5"], "--dropout 1.5"),
+    (["--arm", "scratch", "--hidden", "0"], "--hidden 0"),
+])
+def test_bad_network_arguments_are_refused_in_one_line(files, args, message):
+    tmp_path, _, _, actor_path = files
+    result = run(*args, "--dataset", str(tmp_path / "data"), "--actor", str(actor_path))
+    assert result.returncode == 2 and message in result.stderr.strip().splitlines()[-1]

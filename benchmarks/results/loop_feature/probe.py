@@ -8,13 +8,17 @@ trained on), two pairs of actors trained on the same minibatches (``em_choice`` 
 * ``--arm widened``: from an actor file (``--actor``), as it is (``extended``) against the same actor widened
   to ``loops`` with a zero weight on the new column (so it starts as the actor).
 
+``--feature-sets loops`` trains one of the two only (then no pair difference); ``--dropout`` and ``--hidden``
+change the scratch arm's network (session 45's fit probe, benchmarks/results/fit_probe/plan.md).
+
 Per actor, every ``--every`` steps: the offline gap closed (EM reward of the greedy pick above the frontiers'
 mean, over EM's best above it, pooled) and the agreement with EM's best, held out (the probe split) and in
 sample (a fixed draw of ``--in-sample`` training decisions); at the end, the pair's held-out difference with a
 bootstrap interval over layouts. One JSON line per row; the last line is the summary.
 
     python benchmarks/results/loop_feature/probe.py --arm scratch [--dataset /work/runs/data_scratch_loops] \
-        [--seeds 0 1] [--steps 3000] [--every 1000] [--lr 1e-3] [--out DIR]
+        [--seeds 0 1] [--steps 3000] [--every 1000] [--lr 1e-3] [--out DIR] \
+        [--feature-sets extended loops] [--dropout 0.5] [--hidden 128]
     python benchmarks/results/loop_feature/probe.py --arm widened [--actor FILE] [--steps 2000] [--lr 3e-4]
 """
 
@@ -61,6 +65,12 @@ def scratch_learner(feature_set: str, model, lr: float) -> Learner:
     config = load_config(["scene=building", "slam=model", f"graph.features={feature_set}",
                           "algo.distill_target=em_choice", f"algo.lr={lr}"])
     return Learner(dataclasses.replace(offline_config(config), model=model))
+
+
+def scratch_model(model, dropout: float | None, hidden: int | None):
+    """``model`` with the given dropout and width (None: as it is)."""
+    changes = {key: value for key, value in (("dropout", dropout), ("hidden", hidden)) if value is not None}
+    return dataclasses.replace(model, **changes)
 
 
 def widened_learner(actor: str, lr: float) -> Learner:
@@ -111,10 +121,20 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     add_training_arguments(parser, steps=3000, every=1000, lr=1e-3)
     parser.add_argument("--in-sample", type=int, default=2400, help="training decisions measured in sample (>= 1)")
     parser.add_argument("--out", default="/work/runs/loop_feature", help="folder of the final actor files")
+    parser.add_argument("--feature-sets", nargs="+", choices=FEATURE_SETS, default=list(FEATURE_SETS),
+                        help="which of the pair to train (both: their held-out difference too)")
+    parser.add_argument("--dropout", type=float, default=None, help="scratch arm: the network's dropout (default: --actor's)")
+    parser.add_argument("--hidden", type=int, default=None, help="scratch arm: g-U-Net features (default: --actor's)")
     args = parser.parse_args(argv)
     check_training_arguments(parser, args)
     if args.in_sample < 1:
         parser.error(f"--in-sample {args.in_sample}: give at least 1")
+    if args.arm == "widened" and (args.dropout is not None or args.hidden is not None):
+        parser.error("--dropout/--hidden change the scratch arm's network; the widened arm keeps --actor's")
+    if args.dropout is not None and not 0.0 <= args.dropout < 1.0:
+        parser.error(f"--dropout {args.dropout}: give a value in [0, 1)")
+    if args.hidden is not None and args.hidden < 1:
+        parser.error(f"--hidden {args.hidden}: give at least 1")
     try:
         actor_file = read_actor_file(args.actor)
     except (ValueError, CheckpointError) as error:
@@ -139,10 +159,11 @@ def main(argv: list[str] | None = None) -> None:
     groups = {part: clusters(layouts[index[part].numpy()]) for part in ("held_out", "in_sample")}
     summary = {"arm": args.arm, "train_decisions": len(train_index), "probe_decisions": len(probe_index),
                "probe_layouts": len(groups["held_out"]), "steps": args.steps, "lr": args.lr, "pairs": []}
-    model = read_actor_file(args.actor).model
+    model = scratch_model(read_actor_file(args.actor).model, args.dropout, args.hidden)
+    summary["model"] = dataclasses.asdict(model)
     for seed in args.seeds if args.arm == "scratch" else [0]:
         final = {}
-        for feature_set in FEATURE_SETS:
+        for feature_set in args.feature_sets:
             if args.arm == "scratch":
                 learner = scratch_learner(feature_set, model, args.lr)
             else:
@@ -153,9 +174,10 @@ def main(argv: list[str] | None = None) -> None:
             path = save_offline_actor(learner, Path(args.out) / f"{name}.pt",
                                       {"dataset": args.dataset, "steps": args.steps, "arm": args.arm})
             final[feature_set]["figures"]["actor"] = str(path)
-        pair = {"seed": seed, **{key: final[key]["figures"] for key in FEATURE_SETS},
-                "loops_minus_extended": pair_difference(final["extended"]["scores"], final["loops"]["scores"],
-                                                        groups["held_out"])}
+        pair = {"seed": seed, **{key: final[key]["figures"] for key in args.feature_sets}}
+        if len(final) == len(FEATURE_SETS):
+            pair["loops_minus_extended"] = pair_difference(final["extended"]["scores"], final["loops"]["scores"],
+                                                           groups["held_out"])
         print(json.dumps(pair), flush=True)
         summary["pairs"].append(pair)
     print(json.dumps(summary))
