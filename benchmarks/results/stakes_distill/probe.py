@@ -55,14 +55,19 @@ def split(dataset: DecisionDataset) -> tuple[torch.Tensor, torch.Tensor]:
 def per_decision(learner: Learner, dataset: DecisionDataset, index: torch.Tensor, columns: list[int]) -> dict:
     """Per decision of ``index`` (dropout off): the greedy pick's EM reward above the frontiers' mean, EM's
     best above it, whether the pick is EM's best, and the pick's revisits."""
-    names = list(feature_names(learner.config.graph.features))
     learner.set_training(False)
+    names = list(feature_names(learner.config.graph.features))
+    return scores_of(lambda batch: learner.actor.get_dist(batch).logits, dataset, index, columns, names)
+
+
+def scores_of(logits_of, dataset: DecisionDataset, index: torch.Tensor, columns: list[int], names: list[str]) -> dict:
+    """:func:`per_decision` for any ``logits_of(batch) -> (B, N)`` (an actor, or several averaged)."""
     out = {"gain": [], "stakes": [], "same": [], "revisits": []}
     with torch.no_grad():
         for chunk in index.split(CHUNK):
             batch = padded_batch(dataset.rows(chunk), columns)
             mask, rewards = batch["action_mask"], batch[ACTION_REWARDS]
-            pick = learner.actor.get_dist(batch).logits.masked_fill(~mask, -torch.inf).argmax(-1)
+            pick = logits_of(batch).masked_fill(~mask, -torch.inf).argmax(-1)
             best = rewards.masked_fill(~mask, -torch.inf).argmax(-1)
             rows = torch.arange(len(chunk))
             stakes = decision_stakes(rewards, mask)  # EM's best above the frontiers' mean
