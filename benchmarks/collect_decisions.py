@@ -93,7 +93,7 @@ def make_chooser(actor_path: str | None, sample: bool, seed: int):
         rng = np.random.default_rng(seed)
         return lambda td: int(rng.choice(np.flatnonzero(td["action_mask"].numpy())))
     from explore_rl.models.actor_file import load_actor
-    from explore_rl.trainer.evaluate import greedy_choice
+    from explore_rl.models.actor_critic import greedy_row
 
     actor, _ = load_actor(actor_path)
     generator = torch.Generator().manual_seed(seed)
@@ -102,7 +102,7 @@ def make_chooser(actor_path: str | None, sample: bool, seed: int):
         with torch.no_grad():
             logits = actor(td["x"], td["adj"], td["node_mask"])
         if not sample:
-            return greedy_choice(logits, td["action_mask"])
+            return greedy_row(logits, td["action_mask"])
         probs = torch.softmax(logits.masked_fill(~td["action_mask"], -torch.inf), -1)
         return int(torch.multinomial(probs, 1, generator=generator))
 

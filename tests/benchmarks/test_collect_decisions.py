@@ -12,3 +12,27 @@ def test_each_scene_has_its_own_tasks_and_old_rows_count_as_office():
     assert tasks_done_for(rows, "office") == {0, 1}
     assert tasks_done_for(rows, "building") == {0}
     assert tasks_done_for(rows, "street") == set()
+
+
+def test_an_actor_in_the_loop_picks_its_most_probable_frontier(tmp_path):
+    import torch
+
+    from explore_rl.config import load_config
+    from explore_rl.models.actor_file import load_actor
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    make_chooser = load_script("benchmarks/collect_decisions.py").make_chooser
+    path, _ = actor_file(tmp_path, load_config([*TINY_MODEL, "graph.features=extended"]))
+    torch.manual_seed(0)
+    n = 8
+    adj = torch.zeros(n, n)
+    adj[torch.arange(n - 1), torch.arange(1, n)] = 1.0
+    td = {"x": torch.rand(n, 10), "adj": adj + adj.T, "node_mask": torch.ones(n, dtype=torch.bool),
+          "action_mask": torch.tensor([False, False, False, True, True, False, True, True])}
+    actor, _ = load_actor(path)
+    with torch.no_grad():
+        logits = actor(td["x"], td["adj"], td["node_mask"])
+    expected = int(torch.nonzero(td["action_mask"]).flatten()[logits[td["action_mask"]].argmax()])
+    assert make_chooser(str(path), sample=False, seed=0)(td) == expected
+    sampled = make_chooser(str(path), sample=True, seed=0)
+    assert all(bool(td["action_mask"][sampled(td)]) for _ in range(20))

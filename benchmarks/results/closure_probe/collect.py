@@ -86,7 +86,7 @@ def play(task: tuple) -> tuple[int, list[dict], dict]:
 
     from explore_rl.envs.factory import make_env
     from explore_rl.models.actor_file import load_actor
-    from explore_rl.trainer.evaluate import greedy_choice
+    from explore_rl.models.actor_critic import greedy_row
 
     torch.set_num_threads(1)
     start = time.perf_counter()
@@ -106,7 +106,7 @@ def play(task: tuple) -> tuple[int, list[dict], dict]:
             action = int(rng.choice(np.flatnonzero(mask.numpy())))
         else:
             with torch.no_grad():
-                action = greedy_choice(actor(td["x"], td["adj"], td["node_mask"]), mask)
+                action = greedy_row(actor(td["x"], td["adj"], td["node_mask"]), mask)
         td = env.step(td.set("action", torch.tensor(action)))["next"]
         if bool(td["done"]):
             break
