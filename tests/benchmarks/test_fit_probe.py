@@ -74,3 +74,20 @@ def test_bad_arguments_are_refused_in_one_line(tmp_path):
     missing = run(str(loops), str(tmp_path / "nope.pt"), "--dataset", str(tmp_path / "data"))
     assert missing.returncode == 1 and missing.stderr.strip().startswith("actors:")
     assert len(missing.stderr.strip().splitlines()) == 1
+
+
+def test_memory_script_reports_the_growth_per_100_steps(tmp_path):
+    revisit_dataset(tmp_path / "data", features="loops")
+    script = ROOT / "benchmarks" / "results" / "fit_probe" / "memory.py"
+    result = subprocess.run([sys.executable, str(script), "--dataset", str(tmp_path / "data"), "--steps", "3",
+                             "--every", "1"], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    assert [line["steps"] for line in lines[:3]] == [1, 2, 3] and all(line["resident_mb"] > 0 for line in lines[:3])
+    summary = lines[3]
+    assert summary["first_mb"] == lines[0]["resident_mb"] and summary["last_mb"] == lines[2]["resident_mb"]
+    assert summary["mb_per_100_steps"] == pytest.approx((lines[2]["resident_mb"] - lines[0]["resident_mb"]) / 2 * 100,
+                                                        abs=6)  # the lines round to 0.1 MB
+    bad = subprocess.run([sys.executable, str(script), "--steps", "2", "--every", "5"], capture_output=True, text=True,
+                         cwd=ROOT)
+    assert bad.returncode == 2 and "--every 5" in bad.stderr.strip().splitlines()[-1]
