@@ -27,14 +27,12 @@ import json
 import logging
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine  # noqa: E402
+from common import emit, machine, spawned_results  # noqa: E402
 
 from explore_rl.config import Config, load_config  # noqa: E402
 
@@ -177,31 +175,15 @@ def collect(args: argparse.Namespace) -> dict:
     log.info("%s: %d decisions, %d tasks done, %d to play", dataset.path, len(dataset), len(done), len(todo))
     started, stored = time.perf_counter(), 0
     deadline = started + 60 * args.minutes if args.minutes > 0 else float("inf")
-    tasks = iter([(config, k, args.max_decisions, args.actor, args.sample) for k in todo])
-    with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        running = set()
-        while True:
-            while len(running) < args.workers and time.perf_counter() < deadline and not dataset.full:
-                task = next(tasks, None)
-                if task is None:
-                    break
-                running.add(pool.submit(play_task, task))
-            if not running:
-                break
-            finished, running = wait(running, return_when=FIRST_COMPLETED)
-            for future in finished:
-                try:
-                    k, decisions, info = future.result()
-                except Exception as error:  # noqa: BLE001 -- one bad episode is logged, the rest go on
-                    log.error("an episode failed: %s: %s", type(error).__name__, error)
-                    continue
-                info["scene"] = args.scene
-                info["stored"] = dataset.append(decisions, args.scene)
-                stored += info["stored"]
-                info["wall_s"] = round(time.perf_counter() - started, 1)
-                append_progress(dataset.path, info)
-                log.info("task %d (layout %d): %d decisions in %.0f s; dataset %d", k, info["layout"],
-                         info["decisions"], info["seconds"], len(dataset))
+    tasks = [(config, k, args.max_decisions, args.actor, args.sample) for k in todo]
+    for k, decisions, info in spawned_results(play_task, tasks, args.workers, deadline, lambda: dataset.full):
+        info["scene"] = args.scene
+        info["stored"] = dataset.append(decisions, args.scene)
+        stored += info["stored"]
+        info["wall_s"] = round(time.perf_counter() - started, 1)
+        append_progress(dataset.path, info)
+        log.info("task %d (layout %d): %d decisions in %.0f s; dataset %d", k, info["layout"],
+                 info["decisions"], info["seconds"], len(dataset))
     seconds = time.perf_counter() - started
     append_progress(dataset.path, {"session_s": round(seconds, 1), "stored": stored, "workers": args.workers,
                                    "load_average_1min": round(__import__("os").getloadavg()[0], 2)})

@@ -7,7 +7,7 @@ import json
 import os
 import platform
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 from scipy import stats
@@ -73,3 +73,33 @@ def pin_to_one_core() -> int | None:
 def emit(result: dict) -> None:
     """Print the benchmark's single JSON line; it must be the last line of stdout."""
     print(json.dumps(result, sort_keys=False), flush=True)
+
+
+def spawned_results(play: Callable[[Any], Any], tasks: Iterable[Any], workers: int, deadline: float = float("inf"),
+                    full: Callable[[], bool] = lambda: False) -> Iterator[Any]:
+    """``play(task)`` of each task on ``workers`` spawned processes, at most ``workers`` at once; yields each
+    result as it finishes. No task starts after ``deadline`` (``time.perf_counter``) or once ``full()``; a task
+    that raises is reported on stderr and skipped (one bad episode must not end a collection)."""
+    import sys
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from multiprocessing import get_context
+
+    tasks = iter(tasks)
+    with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
+        running: set = set()
+        while True:
+            while len(running) < workers and time.perf_counter() < deadline and not full():
+                task = next(tasks, None)
+                if task is None:
+                    break
+                running.add(pool.submit(play, task))
+            if not running:
+                return
+            finished, running = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                try:
+                    result = future.result()
+                except Exception as error:  # noqa: BLE001 -- logged, the other tasks go on
+                    print(f"a task failed: {type(error).__name__}: {error}", file=sys.stderr, flush=True)
+                    continue
+                yield result

@@ -23,11 +23,12 @@ import argparse
 import json
 import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from common import spawned_results  # noqa: E402
 
 ACTOR = "benchmarks/results/loop_feature/candidate_widened_loops_actor.pt"
 EPISODE_STREAM = 45  # the episodes' seeds, apart from every other stream of the project
@@ -154,33 +155,16 @@ def main(argv: list[str] | None = None) -> None:
     episodes_file, decisions_file = args.out / "episodes.jsonl", args.out / "decisions.jsonl"
     done = {json.loads(line)["episode"] for line in episodes_file.read_text().splitlines()} \
         if episodes_file.is_file() else set()
-    tasks = iter([(config, k, args.max_decisions, args.actor, args.explore)
-                  for k in range(args.episodes) if k not in done])
+    tasks = [(config, k, args.max_decisions, args.actor, args.explore) for k in range(args.episodes) if k not in done]
     started, stored = time.perf_counter(), 0
     deadline = started + 60 * args.minutes if args.minutes > 0 else float("inf")
-    with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        running = set()
-        while True:
-            while len(running) < args.workers and time.perf_counter() < deadline:
-                task = next(tasks, None)
-                if task is None:
-                    break
-                running.add(pool.submit(play, task))
-            if not running:
-                break
-            finished, running = wait(running, return_when=FIRST_COMPLETED)
-            for future in finished:
-                try:
-                    _, rows, info = future.result()
-                except Exception as error:  # noqa: BLE001 -- one bad episode is logged, the rest go on
-                    print(f"an episode failed: {type(error).__name__}: {error}", file=sys.stderr, flush=True)
-                    continue
-                with open(decisions_file, "a") as handle:
-                    handle.writelines(json.dumps(row) + "\n" for row in rows)
-                with open(episodes_file, "a") as handle:
-                    handle.write(json.dumps(info) + "\n")
-                stored += len(rows)
-                print(json.dumps(info), file=sys.stderr, flush=True)
+    for _, rows, info in spawned_results(play, tasks, args.workers, deadline):
+        with open(decisions_file, "a") as handle:
+            handle.writelines(json.dumps(row) + "\n" for row in rows)
+        with open(episodes_file, "a") as handle:
+            handle.write(json.dumps(info) + "\n")
+        stored += len(rows)
+        print(json.dumps(info), file=sys.stderr, flush=True)
     rows = [json.loads(line) for line in decisions_file.read_text().splitlines()] if decisions_file.is_file() else []
     print(json.dumps({"decisions": len(rows), "episodes": len({row["episode"] for row in rows}),
                       "layouts": len({row["layout"] for row in rows}),

@@ -13,6 +13,7 @@ actor, paired. One JSON line per model or actor; the last line is the summary.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -26,14 +27,18 @@ from explore_rl.models.checkpoint import CheckpointError
 from explore_rl.trainer.dataset import DecisionDataset
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "stakes_distill"))
-from probe import scores_of, split  # noqa: E402
 
-sys.path.remove(str(HERE.parent / "stakes_distill"))
-del sys.modules["probe"]
-sys.path.insert(0, str(HERE))
-from probe import bootstrap, evaluate, gap_closed, layout_groups  # noqa: E402
 
+def module_at(path: Path, name: str):
+    """The script at ``path`` as a module named ``name`` (two folders here each have a ``probe.py``)."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+distill = module_at(HERE.parent / "stakes_distill" / "probe.py", "stakes_distill_probe")
+ridge = module_at(HERE / "probe.py", "closure_probe")
 DATASET = "/work/runs/data_scratch_loops"
 
 
@@ -71,38 +76,34 @@ def main(argv: list[str] | None = None) -> None:
     for path, (_, actor_file) in zip(args.actors, actors):
         if actor_file.feature_set != "loops":
             sys.exit(f"actors: {path} reads graph.features={actor_file.feature_set}; give loops actors")
-    try:
-        dataset = DecisionDataset(args.dataset)
-        columns = dataset.columns_for(names)
-    except ValueError as error:
-        sys.exit(f"--dataset {error}")
-    train_index, probe_index = split(dataset)
+    dataset, columns = distill.dataset_columns(args.dataset, names)
+    train_index, probe_index = distill.split(dataset)
     if len(train_index) == 0 or len(probe_index) == 0:
         sys.exit(f"--dataset {args.dataset}: needs layouts on both sides of the split (layout % 4 == 3 or not)")
     train, held_out = frontier_rows(dataset, train_index, names), frontier_rows(dataset, probe_index, names)
-    groups = layout_groups(np.array([row["layout"] for row in held_out]))
+    groups = ridge.layout_groups(np.array([row["layout"] for row in held_out]))
     every = np.arange(len(held_out))
     scored = {}
     for pairwise in (False, True):
         name = "ridge loops" + (", pairwise" if pairwise else "")
-        result = evaluate(train, held_out, relative=False, pairwise=pairwise)
+        result = ridge.evaluate(train, held_out, relative=False, pairwise=pairwise)
         scored[name] = (result["gain"], result["stakes"])
         print(json.dumps({"model": name, "penalty": result["penalty"],
-                          "gap_closed": round(gap_closed(*scored[name], every), 4),
-                          "gap_closed_ci": bootstrap(lambda r, s=scored[name]: gap_closed(*s, r), groups)}), flush=True)
+                          "gap_closed": round(ridge.gap_closed(*scored[name], every), 4),
+                          "gap_closed_ci": ridge.bootstrap(lambda r, s=scored[name]: ridge.gap_closed(*s, r), groups)}), flush=True)
     for path, (actor, _) in zip(args.actors, actors):
-        scores = scores_of(lambda batch, a=actor: a(batch["x"], batch["adj"], batch["node_mask"]), dataset,
+        scores = distill.scores_of(lambda batch, a=actor: a(batch["x"], batch["adj"], batch["node_mask"]), dataset,
                            probe_index, columns, names)
         scored[path] = (scores["gain"], scores["stakes"])
-        print(json.dumps({"model": path, "gap_closed": round(gap_closed(*scored[path], every), 4),
-                          "gap_closed_ci": bootstrap(lambda r, s=scored[path]: gap_closed(*s, r), groups)}), flush=True)
-    best = max(args.actors, key=lambda path: gap_closed(*scored[path], every))
+        print(json.dumps({"model": path, "gap_closed": round(ridge.gap_closed(*scored[path], every), 4),
+                          "gap_closed_ci": ridge.bootstrap(lambda r, s=scored[path]: ridge.gap_closed(*s, r), groups)}), flush=True)
+    best = max(args.actors, key=lambda path: ridge.gap_closed(*scored[path], every))
     summary = {"train_decisions": len(train), "held_out_decisions": len(held_out), "held_out_layouts": len(groups),
                "best_actor": best, "ridge_minus_best_actor": {}}
     for name in ("ridge loops", "ridge loops, pairwise"):
-        difference = lambda r, a=scored[name], b=scored[best]: gap_closed(*a, r) - gap_closed(*b, r)  # noqa: E731
+        difference = lambda r, a=scored[name], b=scored[best]: ridge.gap_closed(*a, r) - ridge.gap_closed(*b, r)  # noqa: E731
         summary["ridge_minus_best_actor"][name] = {"gap_closed": round(difference(every), 4),
-                                                   "gap_closed_ci": bootstrap(difference, groups)}
+                                                   "gap_closed_ci": ridge.bootstrap(difference, groups)}
     print(json.dumps(summary))
 
 

@@ -22,10 +22,9 @@ import torch
 from explore_rl.graph.features import feature_names
 from explore_rl.models.actor_file import load_actor
 from explore_rl.models.checkpoint import CheckpointError
-from explore_rl.trainer.dataset import DecisionDataset
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "stakes_distill"))
-from probe import bootstrap, clusters, figures, gap_closed, scores_of, split  # noqa: E402
+from probe import bootstrap, clusters, dataset_columns, figures, gap_closed, scores_of, split  # noqa: E402
 
 DATASET = "/work/runs/data_scratch_loops"
 
@@ -61,11 +60,7 @@ def main(argv: list[str] | None = None) -> None:
     if len(feature_sets) != 1:
         sys.exit(f"actors: they read different node features ({', '.join(sorted(feature_sets))}); give one set")
     names = list(feature_names(feature_sets.pop()))
-    try:
-        dataset = DecisionDataset(args.dataset)
-        columns = dataset.columns_for(names)
-    except ValueError as error:
-        sys.exit(f"--dataset {error}")
+    dataset, columns = dataset_columns(args.dataset, names)
     _, probe_index = split(dataset)
     if len(probe_index) == 0:
         sys.exit(f"--dataset {args.dataset}: has no probe layouts (layout % 4 == 3)")

@@ -45,6 +45,16 @@ def learner_for(actor: str, target: str, lr: float) -> Learner:
     return greedy_learner(actor, f"algo.distill_target={target}", f"algo.lr={lr}")
 
 
+def dataset_columns(path: str, names: list[str]) -> tuple[DecisionDataset, list[int]]:
+    """The dataset at ``path`` and the columns of the node features ``names``; exits in one line naming
+    ``--dataset`` if it is not there or lacks them."""
+    try:
+        dataset = DecisionDataset(path)
+        return dataset, dataset.columns_for(names)
+    except ValueError as error:
+        sys.exit(f"--dataset {error}")
+
+
 def split(dataset: DecisionDataset) -> tuple[torch.Tensor, torch.Tensor]:
     """Training and probe decisions, by layout (the probe split's layouts are never trained on)."""
     layouts = dataset.rows()["layout"]
