@@ -1,6 +1,7 @@
-"""closure_probe/: the relative loop uncertainty against a dense inverse, a one-episode collection, and the ridge
-probe on made-up decisions where EM's reward is the relative uncertainty itself (so only the models that see it
-reach EM's choice); bad arguments are refused in one line."""
+"""closure_probe/: the relative loop uncertainty against a dense inverse, the path's map gain against a
+one-landmark hand computation, a one-episode collection, and the ridge probe on made-up decisions where EM's reward
+is one group's quantity itself (so only the models that see it reach EM's choice); bad arguments are refused in
+one line."""
 
 from __future__ import annotations
 
@@ -47,6 +48,22 @@ def test_relative_uncertainty_is_the_trace_of_the_difference_covariance():
     assert values[current] == pytest.approx(0.0, abs=1e-12) and (np.delete(values, current) > 0).all()
 
 
+def test_path_map_counts_the_landmarks_in_range_and_the_gain_of_one_observation():
+    from types import SimpleNamespace
+
+    path_map = load_script("benchmarks/results/closure_probe/collect.py").path_map
+    prediction = SimpleNamespace(poses=np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    landmark_xy = np.array([[3.5, 0.0], [0.0, 2.0], [10.0, 0.0]])  # in range of the 2nd pose, the 1st, neither
+    landmark_covs = np.array([np.diag([0.04, 0.01]), 0.02 * np.eye(2), np.eye(2)])
+    robot = 0.01 * np.eye(2)
+    landmarks, uncertainty, gain = path_map(prediction, landmark_xy, landmark_covs, robot, sensor_range=3.0)
+    assert landmarks == 2 and uncertainty == pytest.approx(0.05 + 0.04)
+    # scalar fusion per axis: s * r / (s + r), off the trace
+    expected = sum(s - s * 0.01 / (s + 0.01) for s in (0.04, 0.01, 0.02, 0.02))
+    assert gain == pytest.approx(expected)
+    assert path_map(SimpleNamespace(poses=np.zeros((0, 3))), landmark_xy, landmark_covs, robot, 3.0) == (0, 0.0, 0.0)
+
+
 def test_one_episode_is_collected_and_resumed(tmp_path):
     from explore_rl.config import load_config
     from tests.policy_files import TINY_MODEL, actor_file
@@ -65,11 +82,14 @@ def test_one_episode_is_collected_and_resumed(tmp_path):
         assert 0 <= row["em_choice"] < frontiers and min(row["loop_uncertainty"]) >= 0
         revisits = np.asarray(row["x"])[:, row["features"].index("revisits")]
         assert all(u == 0 for u, r in zip(row["loop_uncertainty"], revisits) if r == 0)
+        landmarks, uncertainty, gain = (np.asarray(row["path_map"][key]) for key in ("landmarks", "uncertainty", "gain"))
+        assert len(landmarks) == frontiers and (landmarks >= 1).all()  # a path sees the landmarks around it
+        assert (gain > 0).all() and (gain < uncertainty).all()  # an observation takes off part of the uncertainty
     again = run("collect.py", *args)  # resumed: the episode is done, nothing is added
     assert again.returncode == 0 and json.loads(again.stdout.strip().splitlines()[-1])["decisions"] == len(rows)
 
 
-def made_up_decisions(path, count: int = 160) -> None:
+def made_up_decisions(path, count: int = 160, reward_of: str = "loop_uncertainty", path_map: bool = True) -> None:
     rng = np.random.default_rng(0)
     names = ["uncertainty", "distance", "bearing", "identity", "path_length", "frontier_size", "unknown_nearby",
              "revisits", "revisit_uncertainty", "landmark_uncertainty", "loop_length"]
@@ -79,11 +99,16 @@ def made_up_decisions(path, count: int = 160) -> None:
             x = rng.uniform(0, 1, size=(frontiers, len(names)))
             x[:, names.index("identity")] = 1.0
             loop = rng.uniform(0, 0.01, frontiers)
-            rewards = 100 * loop  # EM's reward is the relative uncertainty itself
-            handle.write(json.dumps({"episode": index // 8, "layout": index % 16, "step": index % 8,
-                                     "features": names, "x": x.tolist(), "loop_uncertainty": loop.tolist(),
-                                     "rewards": rewards.tolist(), "em_choice": int(np.argmax(rewards)),
-                                     "poses": 10}) + "\n")
+            extra = {"landmarks": rng.integers(0, 50, frontiers).tolist(), "uncertainty": rng.uniform(0, 1, frontiers).tolist(),
+                     "gain": rng.uniform(0, 0.5, frontiers).tolist()}
+            # EM's reward is the relative uncertainty itself, or the path's map gain
+            rewards = 100 * loop if reward_of == "loop_uncertainty" else 2 * np.asarray(extra["gain"])
+            row = {"episode": index // 8, "layout": index % 16, "step": index % 8, "features": names, "x": x.tolist(),
+                   "loop_uncertainty": loop.tolist(), "rewards": rewards.tolist(), "em_choice": int(np.argmax(rewards)),
+                   "poses": 10}
+            if path_map:
+                row["path_map"] = extra
+            handle.write(json.dumps(row) + "\n")
 
 
 def test_the_probe_finds_the_information_where_it_is(tmp_path):
@@ -103,7 +128,27 @@ def test_the_probe_finds_the_information_where_it_is(tmp_path):
     assert difference["gap_closed_ci"][0] > 0
 
 
+def test_each_group_is_tested_alone_and_together(tmp_path):
+    made_up_decisions(tmp_path / "decisions.jsonl", reward_of="path_map")
+    result = run("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"), "--extras", "loop_uncertainty",
+                 "path_map")
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    models = {line["model"]: line["gap_closed"] for line in lines[:-1]}
+    assert len(models) == 8
+    assert models["loops + path_map"] > 0.95 and models["loops + loop_uncertainty + path_map"] > 0.95
+    assert models["loops + loop_uncertainty"] < 0.5
+    differences = lines[-1]["differences"]
+    assert set(differences) == {"loop_uncertainty", "path_map", "loop_uncertainty + path_map",
+                                "loop_uncertainty, pairwise", "path_map, pairwise",
+                                "loop_uncertainty + path_map, pairwise"}
+    assert differences["path_map"]["gap_closed_ci"][0] > 0
+
+
 def test_bad_arguments_are_refused_in_one_line(tmp_path):
+    made_up_decisions(tmp_path / "old.jsonl", path_map=False)
+    old = run("probe.py", "--decisions", str(tmp_path / "old.jsonl"), "--extras", "path_map")
+    assert old.returncode == 1 and "without it" in old.stderr.strip().splitlines()[-1]
     missing = run("probe.py", "--decisions", str(tmp_path / "nope.jsonl"))
     assert missing.returncode == 1 and "no such file" in missing.stderr.strip().splitlines()[-1]
     for args, message in ((["--explore", "2"], "--explore 2"), (["--episodes", "0"], "--episodes must be >= 1"),

@@ -5,7 +5,12 @@ for every frontier of the action set: its ``loops`` node features, EM's Algorith
 ``loop_uncertainty``: the largest trace of the world-frame xy covariance of the robot's keyframe *relative to* a
 keyframe the frontier's path revisits (``Cov(p_c - p_k)``, from one sparse factorisation of the pose graph's
 information matrix and the current keyframe's covariance columns; 0 if the path revisits none). That is what a
-loop closure corrects, and what ``loop_length`` stands in for. Research code: not a feature of the product.
+loop closure corrects, and what ``loop_length`` stands in for. And three quantities of the virtual map along the
+path (``path_map``; plan addendum of 21:35): of the virtual landmarks within sensor range of the path's predicted
+keyframes (line of sight ignored), how many (``landmarks``), the sum of the traces of their covariances
+(``uncertainty``, m^2), and the sum of what one observation from a pose as uncertain as the robot's would take off
+those traces (``gain``, m^2): EM's first-order term, without its forward simulation. Research code: not a feature
+of the product.
 
 Spawned workers play whole episodes (an actor file in the loop, greedy, a random valid frontier with probability
 ``--explore``); the main process appends one JSON line per decision to ``OUT/decisions.jsonl`` and one per
@@ -53,6 +58,23 @@ def relative_uncertainty(information, poses: np.ndarray, current: int) -> np.nda
     return np.trace(relative, axis1=1, axis2=2)
 
 
+def path_map(prediction, landmark_xy: np.ndarray, landmark_covs: np.ndarray, robot_xy_cov: np.ndarray,
+             sensor_range: float) -> tuple[int, float, float]:
+    """``(landmarks, uncertainty, gain)`` of the virtual landmarks within ``sensor_range`` of a path's predicted
+    keyframes (see the module docstring); an observation is taken as the robot's xy covariance."""
+    from scipy.spatial import cKDTree
+
+    if len(prediction.poses) == 0:
+        return 0, 0.0, 0.0
+    near = cKDTree(prediction.poses[:, :2]).query_ball_point(landmark_xy, sensor_range, return_length=True) > 0
+    covs = landmark_covs[near]
+    if not len(covs):
+        return 0, 0.0, 0.0
+    after = np.linalg.inv(np.linalg.inv(covs) + np.linalg.inv(robot_xy_cov))
+    before = np.trace(covs, axis1=1, axis2=2)
+    return int(near.sum()), float(before.sum()), float((before - np.trace(after, axis1=1, axis2=2)).sum())
+
+
 def information_of(graph) -> tuple:
     """The pose graph's information matrix at its estimate (as the learned planner's marginals read it)."""
     from explore_rl.slam.marginals import information_from_jacobian
@@ -61,8 +83,8 @@ def information_of(graph) -> tuple:
     return information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
 
 
-def decision_row(decision) -> dict | None:
-    """One decision's record (None if EM failed on it)."""
+def decision_row(decision, em=None) -> dict | None:
+    """One decision's record (None if EM failed on it); ``em``: the env's EM planner, for the virtual map."""
     from explore_rl.graph.features import feature_names
 
     if decision.rewards is None:
@@ -73,11 +95,18 @@ def decision_row(decision) -> dict | None:
     relative = relative_uncertainty(information_of(state.session.graph), poses, current)
     loop_uncertainty = [max((float(relative[r.keyframe_index]) for r in action.prediction.revisits), default=0.0)
                         for action in decision.actions]
-    return {"features": list(feature_names("loops")),
+    row = {"features": list(feature_names("loops")),
             "x": np.round(graph.features[graph.frontier_nodes], 6).tolist(),
             "loop_uncertainty": np.round(loop_uncertainty, 8).tolist(),
             "rewards": np.round(decision.rewards, 8).tolist(), "em_choice": int(decision.em_choice),
             "poses": len(poses)}
+    if em is not None:
+        context = em.decision_context(state)
+        robot = context.pose_covs[current, :2, :2] + 1e-9 * np.eye(2)
+        values = [path_map(action.prediction, context.vmap.landmark_xy, context.landmark_covs, robot,
+                           context.vmap.config.sensor_range) for action in decision.actions]
+        row["path_map"] = {key: [v[k] for v in values] for k, key in enumerate(("landmarks", "uncertainty", "gain"))}
+    return row
 
 
 def play(task: tuple) -> tuple[int, list[dict], dict]:
@@ -99,7 +128,7 @@ def play(task: tuple) -> tuple[int, list[dict], dict]:
     td, rows = env.reset(), []
     layout = int(td["layout"])
     for step in range(max_decisions):
-        row = decision_row(env.decision)
+        row = decision_row(env.decision, env.em)
         if row is not None:
             rows.append({"episode": k, "layout": layout, "step": step, **row})
         mask = td["action_mask"]

@@ -1,15 +1,17 @@
-"""Per-frontier ridge probe of ``loop_uncertainty`` (session 45, closure_probe/plan.md): does the relative loop
-uncertainty add to the ``loops`` features what EM's choice depends on?
+"""Per-frontier ridge probe of ``loop_uncertainty`` and ``path_map`` (session 45, closure_probe/plan.md): does the
+relative loop uncertainty, or the virtual map along the path, add to the ``loops`` features what EM's choice
+depends on?
 
 Reads ``decisions.jsonl`` of ``collect.py``. Each frontier is a row: its features, and EM's Algorithm 1 reward
 centred on its decision's mean (the target); a model scores the frontiers of a decision and picks the top one.
 Trained on layouts ``layout % 4 != 3``, measured on the others (held out): offline gap closed (the pick's reward
 above the decision's mean over EM's best above it, pooled) with a bootstrap interval over layouts, and the paired
-difference of each ``+ loop_uncertainty`` model to its ``loops`` twin. The ridge penalty of every model is chosen
+difference of each ``+ GROUP`` model (``--extras``: ``loop_uncertainty``, ``path_map``) to its ``loops`` twin. The ridge penalty of every model is chosen
 by a 4-fold cross-validation by layout within the training layouts. One JSON line per model; the last line is
 the summary.
 
-    python benchmarks/results/closure_probe/probe.py [--decisions /work/runs/closure_probe/decisions.jsonl]
+    python benchmarks/results/closure_probe/probe.py [--decisions /work/runs/closure_probe/decisions.jsonl] \
+        [--extras loop_uncertainty path_map]
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ PROBE_EVERY = 4  # layouts with layout % 4 == 3 are held out
 FOLDS = 4
 PENALTIES = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0, 1000.0)
 BOOTSTRAP = 2000
-DROPPED = ("identity", "bearing")  # identity is 1 on every frontier; bearing enters as cos and sin
+DROPPED = ("identity", "bearing")
+EXTRAS = ("loop_uncertainty", "path_map")  # identity is 1 on every frontier; bearing enters as cos and sin
 
 
 def load(path: Path) -> list[dict]:
@@ -35,9 +38,10 @@ def load(path: Path) -> list[dict]:
     return [row for row in rows if len(row["rewards"]) >= 2]
 
 
-def frontier_columns(row: dict, relative: bool) -> np.ndarray:
+def frontier_columns(row: dict, extras: tuple[str, ...]) -> np.ndarray:
     """``(F, C)`` one decision's frontier features: the ``loops`` columns but identity, the bearing as cos/sin,
-    log1p of the non-negative ones; ``relative``: ``loop_uncertainty`` and its log too."""
+    log1p of the non-negative ones; then each group of ``extras`` (``loop_uncertainty``; ``path_map``'s
+    landmarks, uncertainty and gain), each with its log."""
     x = np.asarray(row["x"], float)
     names = row["features"]
     keep = [i for i, name in enumerate(names) if name not in DROPPED]
@@ -45,15 +49,18 @@ def frontier_columns(row: dict, relative: bool) -> np.ndarray:
     columns = [x[:, keep], np.cos(bearing)[:, None], np.sin(bearing)[:, None]]
     positive = [i for i in keep if (x[:, i] >= 0).all()]
     columns.append(np.log1p(np.abs(x[:, positive])))
-    if relative:
+    if "loop_uncertainty" in extras:
         loop = np.asarray(row["loop_uncertainty"], float)[:, None]
         columns += [loop, np.log1p(1e3 * loop)]
+    if "path_map" in extras:
+        path = np.column_stack([row["path_map"][key] for key in ("landmarks", "uncertainty", "gain")]).astype(float)
+        columns += [path, np.log1p(np.abs(path))]
     return np.hstack(columns)
 
 
-def design(rows: list[dict], relative: bool, pairwise: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def design(rows: list[dict], extras: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every frontier's features ``(R, C)``, centred reward ``(R,)`` and decision number ``(R,)``."""
-    features = [frontier_columns(row, relative) for row in rows]
+    features = [frontier_columns(row, extras) for row in rows]
     width = {f.shape[1] for f in features}
     if len(width) != 1:
         raise ValueError(f"decisions disagree on their feature columns ({sorted(width)})")
@@ -109,9 +116,9 @@ def bootstrap(statistic, groups: list[np.ndarray], seed: int = 0) -> list[float]
     return [round(float(v), 4) for v in np.percentile(values, [2.5, 97.5])]
 
 
-def choose_penalty(rows: list[dict], relative: bool, pairwise: bool) -> float:
+def choose_penalty(rows: list[dict], extras: tuple[str, ...], pairwise: bool) -> float:
     """The penalty with the best pooled gap closed over a 4-fold cross-validation by layout."""
-    x, y, decision = design(rows, relative, pairwise)
+    x, y, decision = design(rows, extras)
     fold = np.array([row["layout"] for row in rows]) % FOLDS
     best, best_score = PENALTIES[0], -np.inf
     for penalty in PENALTIES:
@@ -131,12 +138,13 @@ def choose_penalty(rows: list[dict], relative: bool, pairwise: bool) -> float:
     return best
 
 
-def evaluate(train: list[dict], held_out: list[dict], relative: bool, pairwise: bool) -> dict:
-    """One model: its penalty, and per held-out decision its gain and the stakes."""
-    penalty = choose_penalty(train, relative, pairwise)
-    x, y, _ = design(train, relative, pairwise)
+def evaluate(train: list[dict], held_out: list[dict], extras: tuple[str, ...], pairwise: bool) -> dict:
+    """One model (the ``loops`` columns and the groups ``extras``): its penalty, and per held-out decision its
+    gain and the stakes."""
+    penalty = choose_penalty(train, extras, pairwise)
+    x, y, _ = design(train, extras)
     model = fit(x, y, penalty, pairwise)
-    x_out, y_out, decision = design(held_out, relative, pairwise)
+    x_out, y_out, decision = design(held_out, extras)
     gain, stakes = gains(model(x_out), y_out, decision, len(held_out))
     return {"penalty": penalty, "gain": gain, "stakes": stakes}
 
@@ -144,7 +152,13 @@ def evaluate(train: list[dict], held_out: list[dict], relative: bool, pairwise: 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--decisions", type=Path, default=Path(DECISIONS), help="collect.py's decisions.jsonl")
+    parser.add_argument("--extras", nargs="+", choices=EXTRAS, default=["loop_uncertainty"],
+                        help="feature groups tested against the loops columns (each alone, and all together)")
     return parser.parse_args(argv)
+
+
+def model_name(extras: tuple[str, ...], pairwise: bool) -> str:
+    return "loops" + "".join(f" + {group}" for group in extras) + (", pairwise" if pairwise else "")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -152,28 +166,34 @@ def main(argv: list[str] | None = None) -> None:
     if not args.decisions.is_file():
         sys.exit(f"--decisions {args.decisions}: no such file (run collect.py first)")
     rows = load(args.decisions)
+    if "path_map" in args.extras and not all("path_map" in row for row in rows):
+        sys.exit(f"--extras path_map: {args.decisions} has decisions without it (collected before it was recorded)")
     held = np.array([row["layout"] % PROBE_EVERY == PROBE_EVERY - 1 for row in rows], dtype=bool)
     train, held_out = [r for r, h in zip(rows, held) if not h], [r for r, h in zip(rows, held) if h]
     if not train or not held_out:
         sys.exit(f"--decisions {args.decisions}: needs layouts on both sides of the split (layout % 4 == 3 or not)")
     groups = layout_groups(np.array([row["layout"] for row in held_out]))
+    every = np.arange(len(held_out))
+    sets = [()] + [(group,) for group in args.extras] + ([tuple(args.extras)] if len(args.extras) > 1 else [])
     results = {}
     for pairwise in (False, True):
-        for relative in (False, True):
-            name = ("loops" + (" + loop_uncertainty" if relative else "")) + (", pairwise" if pairwise else "")
-            result = evaluate(train, held_out, relative, pairwise)
+        for extras in sets:
+            result = evaluate(train, held_out, extras, pairwise)
+            results[extras, pairwise] = result
             statistic = lambda r, res=result: gap_closed(res["gain"], res["stakes"], r)  # noqa: E731
-            results[name] = result
-            print(json.dumps({"model": name, "penalty": result["penalty"],
-                              "gap_closed": round(statistic(np.arange(len(held_out))), 4),
+            print(json.dumps({"model": model_name(extras, pairwise), "penalty": result["penalty"],
+                              "gap_closed": round(statistic(every), 4),
                               "gap_closed_ci": bootstrap(statistic, groups)}), flush=True)
     summary = {"train_decisions": len(train), "held_out_decisions": len(held_out), "held_out_layouts": len(groups),
                "differences": {}}
-    for suffix in ("", ", pairwise"):
-        base, more = results["loops" + suffix], results["loops + loop_uncertainty" + suffix]
-        difference = lambda r, a=base, b=more: gap_closed(b["gain"], b["stakes"], r) - gap_closed(a["gain"], a["stakes"], r)  # noqa: E731
-        summary["differences"]["loop_uncertainty" + suffix] = {
-            "gap_closed": round(difference(np.arange(len(held_out))), 4), "gap_closed_ci": bootstrap(difference, groups)}
+    for pairwise in (False, True):
+        base = results[(), pairwise]
+        for extras in sets[1:]:
+            more = results[extras, pairwise]
+            difference = lambda r, a=base, b=more: gap_closed(b["gain"], b["stakes"], r) - gap_closed(a["gain"], a["stakes"], r)  # noqa: E731
+            name = " + ".join(extras) + (", pairwise" if pairwise else "")
+            summary["differences"][name] = {"gap_closed": round(difference(every), 4),
+                                            "gap_closed_ci": bootstrap(difference, groups)}
     print(json.dumps(summary))
 
 

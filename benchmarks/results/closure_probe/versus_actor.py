@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> None:
     scored = {}
     for pairwise in (False, True):
         name = "ridge loops" + (", pairwise" if pairwise else "")
-        result = ridge.evaluate(train, held_out, relative=False, pairwise=pairwise)
+        result = ridge.evaluate(train, held_out, (), pairwise)
         scored[name] = (result["gain"], result["stakes"])
         print(json.dumps({"model": name, "penalty": result["penalty"],
                           "gap_closed": round(ridge.gap_closed(*scored[name], every), 4),
