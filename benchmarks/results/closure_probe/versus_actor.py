@@ -1,5 +1,5 @@
 """Per-frontier ridge models against g-U-Net actors on the same held-out decisions (session 45,
-closure_probe/plan.md, addendum of 21:25).
+closure_probe/plan.md, addendum of 21:23).
 
 On a ``graph.features=loops`` ``DecisionDataset`` (``/work/runs/data_scratch_loops``): the ridge models of
 ``probe.py`` (``loops``, linear and pairwise, penalty by its cross-validation by layout) fitted on the frontier rows
