@@ -28,6 +28,22 @@ def load_script(script: str):
     return module
 
 
+def run_main(script: str, args: list[str], capsys) -> tuple[int, str, str]:
+    """``ROOT/script``'s ``main(args)`` in this process (no interpreter start and imports per call, for the
+    small research scripts): its exit code, stdout and stderr as a user would see them (``sys.exit("message")``:
+    code 1 and the message on stderr)."""
+    code, message = 0, ""
+    try:
+        load_script(script).main(list(args))
+    except SystemExit as exit_:
+        if isinstance(exit_.code, str):
+            code, message = 1, exit_.code + "\n"
+        else:
+            code = int(exit_.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err + message
+
+
 def run_script(script: str, *args: str, cwd: Path, timeout: float = 120.0) -> dict:
     """Run ``ROOT/script args``; fail unless it exits 0 with a JSON object as its last
     stdout line, and return that object."""

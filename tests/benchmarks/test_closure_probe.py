@@ -8,18 +8,29 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from tests.benchmarks.smoke import ROOT, load_script
+from tests.benchmarks.smoke import ROOT, load_script, run_main
 
 FOLDER = ROOT / "benchmarks" / "results" / "closure_probe"
 
 
 def run(script: str, *args: str) -> subprocess.CompletedProcess:
+    """collect.py as a user runs it (its spawned workers import it by path)."""
     return subprocess.run([sys.executable, str(FOLDER / script), *args], capture_output=True, text=True, cwd=ROOT)
+
+
+@pytest.fixture()
+def run_here(capsys):
+    """Run a script of closure_probe/ in this process (see tests/benchmarks/smoke.py: run_main)."""
+    def call(script: str, *args: str) -> SimpleNamespace:
+        code, out, err = run_main(f"benchmarks/results/closure_probe/{script}", list(args), capsys)
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+    return call
 
 
 def test_relative_uncertainty_is_the_trace_of_the_difference_covariance():
@@ -64,7 +75,7 @@ def test_path_map_counts_the_landmarks_in_range_and_the_gain_of_one_observation(
     assert path_map(SimpleNamespace(poses=np.zeros((0, 3))), landmark_xy, landmark_covs, robot, 3.0) == (0, 0.0, 0.0)
 
 
-def test_one_episode_is_collected_and_resumed(tmp_path):
+def test_one_episode_is_collected_and_resumed(tmp_path, run_here):
     from explore_rl.config import load_config
     from tests.policy_files import TINY_MODEL, actor_file
 
@@ -85,7 +96,7 @@ def test_one_episode_is_collected_and_resumed(tmp_path):
         landmarks, uncertainty, gain = (np.asarray(row["path_map"][key]) for key in ("landmarks", "uncertainty", "gain"))
         assert len(landmarks) == frontiers and (landmarks >= 1).all()  # a path sees the landmarks around it
         assert (gain > 0).all() and (gain < uncertainty).all()  # an observation takes off part of the uncertainty
-    again = run("collect.py", *args)  # resumed: the episode is done, nothing is added
+    again = run_here("collect.py", *args)  # resumed: the episode is done, nothing is added (no worker starts)
     assert again.returncode == 0 and json.loads(again.stdout.strip().splitlines()[-1])["decisions"] == len(rows)
 
 
@@ -111,9 +122,9 @@ def made_up_decisions(path, count: int = 160, reward_of: str = "loop_uncertainty
             handle.write(json.dumps(row) + "\n")
 
 
-def test_the_probe_finds_the_information_where_it_is(tmp_path):
+def test_the_probe_finds_the_information_where_it_is(tmp_path, run_here):
     made_up_decisions(tmp_path / "decisions.jsonl")
-    result = run("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"))
+    result = run_here("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"))
     assert result.returncode == 0, result.stderr
     lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
     models = {line["model"]: line for line in lines[:4]}
@@ -128,9 +139,9 @@ def test_the_probe_finds_the_information_where_it_is(tmp_path):
     assert difference["gap_closed_ci"][0] > 0
 
 
-def test_each_group_is_tested_alone_and_together(tmp_path):
+def test_each_group_is_tested_alone_and_together(tmp_path, run_here):
     made_up_decisions(tmp_path / "decisions.jsonl", reward_of="path_map")
-    result = run("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"), "--extras", "loop_uncertainty",
+    result = run_here("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"), "--extras", "loop_uncertainty",
                  "path_map")
     assert result.returncode == 0, result.stderr
     lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
@@ -145,13 +156,13 @@ def test_each_group_is_tested_alone_and_together(tmp_path):
     assert differences["path_map"]["gap_closed_ci"][0] > 0
 
 
-def test_bad_arguments_are_refused_in_one_line(tmp_path):
+def test_bad_arguments_are_refused_in_one_line(tmp_path, run_here):
     made_up_decisions(tmp_path / "old.jsonl", path_map=False)
-    old = run("probe.py", "--decisions", str(tmp_path / "old.jsonl"), "--extras", "path_map")
+    old = run_here("probe.py", "--decisions", str(tmp_path / "old.jsonl"), "--extras", "path_map")
     assert old.returncode == 1 and "without it" in old.stderr.strip().splitlines()[-1]
-    missing = run("probe.py", "--decisions", str(tmp_path / "nope.jsonl"))
+    missing = run_here("probe.py", "--decisions", str(tmp_path / "nope.jsonl"))
     assert missing.returncode == 1 and "no such file" in missing.stderr.strip().splitlines()[-1]
     for args, message in ((["--explore", "2"], "--explore 2"), (["--episodes", "0"], "--episodes must be >= 1"),
                           (["--actor", str(tmp_path / "nope.pt")], "no such file")):
-        result = run("collect.py", "--out", str(tmp_path / "out"), *args)
+        result = run_here("collect.py", "--out", str(tmp_path / "out"), *args)
         assert result.returncode == 2 and message in result.stderr.strip().splitlines()[-1]

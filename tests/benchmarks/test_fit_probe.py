@@ -5,21 +5,22 @@ arguments are refused in one line."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.smoke import run_main
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
-SCRIPT = ROOT / "benchmarks" / "results" / "fit_probe" / "ensemble.py"
-
-
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, cwd=ROOT)
+@pytest.fixture()
+def run(capsys):
+    """Run the script in this process (see tests/benchmarks/smoke.py: run_main)."""
+    def call(*args: str) -> SimpleNamespace:
+        code, out, err = run_main("benchmarks/results/fit_probe/ensemble.py", list(args), capsys)
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+    return call
 
 
 def tiny_actor(directory, features: str, seed: int):
@@ -30,7 +31,7 @@ def tiny_actor(directory, features: str, seed: int):
     return path
 
 
-def test_members_and_ensemble_figures(tmp_path):
+def test_members_and_ensemble_figures(tmp_path, run):
     from explore_rl.models.actor_file import load_actor
     from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 
@@ -64,7 +65,7 @@ def test_members_and_ensemble_figures(tmp_path):
         lines[2]["held_out"]["gap_closed"] - best_member["held_out"]["gap_closed"], abs=2e-4)
 
 
-def test_bad_arguments_are_refused_in_one_line(tmp_path):
+def test_bad_arguments_are_refused_in_one_line(tmp_path, run):
     revisit_dataset(tmp_path / "data", features="loops")
     loops, extended = tiny_actor(tmp_path / "l", "loops", 0), tiny_actor(tmp_path / "e", "extended", 0)
     one = run(str(loops), "--dataset", str(tmp_path / "data"))
@@ -76,18 +77,16 @@ def test_bad_arguments_are_refused_in_one_line(tmp_path):
     assert len(missing.stderr.strip().splitlines()) == 1
 
 
-def test_memory_script_reports_the_growth_per_100_steps(tmp_path):
+def test_memory_script_reports_the_growth_per_100_steps(tmp_path, capsys):
     revisit_dataset(tmp_path / "data", features="loops")
-    script = ROOT / "benchmarks" / "results" / "fit_probe" / "memory.py"
-    result = subprocess.run([sys.executable, str(script), "--dataset", str(tmp_path / "data"), "--steps", "3",
-                             "--every", "1"], capture_output=True, text=True, cwd=ROOT)
-    assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    script = "benchmarks/results/fit_probe/memory.py"
+    code, out, err = run_main(script, ["--dataset", str(tmp_path / "data"), "--steps", "3", "--every", "1"], capsys)
+    assert code == 0, err
+    lines = [json.loads(line) for line in out.strip().splitlines()]
     assert [line["steps"] for line in lines[:3]] == [1, 2, 3] and all(line["resident_mb"] > 0 for line in lines[:3])
     summary = lines[3]
     assert summary["first_mb"] == lines[0]["resident_mb"] and summary["last_mb"] == lines[2]["resident_mb"]
     assert summary["mb_per_100_steps"] == pytest.approx((lines[2]["resident_mb"] - lines[0]["resident_mb"]) / 2 * 100,
                                                         abs=6)  # the lines round to 0.1 MB
-    bad = subprocess.run([sys.executable, str(script), "--steps", "2", "--every", "5"], capture_output=True, text=True,
-                         cwd=ROOT)
-    assert bad.returncode == 2 and "--every 5" in bad.stderr.strip().splitlines()[-1]
+    code, _, err = run_main(script, ["--steps", "2", "--every", "5"], capsys)
+    assert code == 2 and "--every 5" in err.strip().splitlines()[-1]

@@ -5,21 +5,23 @@ files, the pair's difference is loops - extended; bad arguments are refused in o
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.smoke import run_main
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
-SCRIPT = ROOT / "benchmarks" / "results" / "loop_feature" / "probe.py"
 
-
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, cwd=ROOT)
+@pytest.fixture()
+def run(capsys):
+    """The probe in this process (tests/benchmarks/smoke.py: run_main): no interpreter start per call."""
+    def call(*args: str) -> SimpleNamespace:
+        code, out, err = run_main("benchmarks/results/loop_feature/probe.py", list(args), capsys)
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+    return call
 
 
 @pytest.fixture()
@@ -32,7 +34,7 @@ def files(tmp_path):
     return tmp_path, decisions, best, actor_path
 
 
-def test_the_widened_actor_starts_as_the_actor_and_both_arms_train(files):
+def test_the_widened_actor_starts_as_the_actor_and_both_arms_train(files, run):
     from explore_rl.models.actor_file import load_actor
     from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 
@@ -71,7 +73,7 @@ def test_the_widened_actor_starts_as_the_actor_and_both_arms_train(files):
         assert len(saved["features"]) == width
 
 
-def test_the_scratch_arm_trains_a_pair_per_seed(files):
+def test_the_scratch_arm_trains_a_pair_per_seed(files, run):
     tmp_path, _, _, actor_path = files
     result = run("--arm", "scratch", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path),
                  "--seeds", "0", "1", "--steps", "1", "--every", "1", "--in-sample", "5", "--out", str(tmp_path / "out"))
@@ -82,13 +84,13 @@ def test_the_scratch_arm_trains_a_pair_per_seed(files):
 
 
 @pytest.mark.parametrize("bad", [["--steps", "0"], ["--actor", "/nonexistent.pt"], ["--dataset", "/nonexistent/data"]])
-def test_the_probe_refuses_bad_arguments_in_one_line(bad):
+def test_the_probe_refuses_bad_arguments_in_one_line(bad, run):
     result = run("--arm", "widened", *bad)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert bad[0] in result.stderr.strip().splitlines()[-1]
 
 
-def test_one_feature_set_with_another_network(files):
+def test_one_feature_set_with_another_network(files, run):
     tmp_path, _, _, actor_path = files
     result = run("--arm", "scratch", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path),
                  "--feature-sets", "loops", "--dropout", "0", "--hidden", "6", "--steps", "2", "--every", "1",
@@ -109,7 +111,7 @@ def test_one_feature_set_with_another_network(files):
     (["--arm", "scratch", "--dropout", "1.5"], "--dropout 1.5"),
     (["--arm", "scratch", "--hidden", "0"], "--hidden 0"),
 ])
-def test_bad_network_arguments_are_refused_in_one_line(files, args, message):
+def test_bad_network_arguments_are_refused_in_one_line(files, run, args, message):
     tmp_path, _, _, actor_path = files
     result = run(*args, "--dataset", str(tmp_path / "data"), "--actor", str(actor_path))
     assert result.returncode == 2 and message in result.stderr.strip().splitlines()[-1]

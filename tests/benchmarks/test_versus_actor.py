@@ -5,21 +5,22 @@ in one line."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.smoke import run_main
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
-SCRIPT = ROOT / "benchmarks" / "results" / "closure_probe" / "versus_actor.py"
-
-
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, cwd=ROOT)
+@pytest.fixture()
+def run(capsys):
+    """Run the script in this process (see tests/benchmarks/smoke.py: run_main)."""
+    def call(*args: str) -> SimpleNamespace:
+        code, out, err = run_main("benchmarks/results/closure_probe/versus_actor.py", list(args), capsys)
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+    return call
 
 
 def tiny_actor(directory, features: str):
@@ -29,7 +30,7 @@ def tiny_actor(directory, features: str):
     return actor_file(directory, load_config([*TINY_MODEL, f"graph.features={features}"]))[0]
 
 
-def test_ridge_and_actor_on_the_same_held_out_decisions(tmp_path):
+def test_ridge_and_actor_on_the_same_held_out_decisions(tmp_path, run):
     from explore_rl.models.actor_file import load_actor
     from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 
@@ -58,7 +59,7 @@ def test_ridge_and_actor_on_the_same_held_out_decisions(tmp_path):
             line["gap_closed"] - lines[2]["gap_closed"], abs=2e-4)
 
 
-def test_an_actor_of_other_features_is_refused_in_one_line(tmp_path):
+def test_an_actor_of_other_features_is_refused_in_one_line(tmp_path, run):
     revisit_dataset(tmp_path / "data", features="loops")
     result = run(str(tiny_actor(tmp_path / "e", "extended")), "--dataset", str(tmp_path / "data"))
     assert result.returncode == 1 and "give loops actors" in result.stderr.strip().splitlines()[-1]
