@@ -5,9 +5,11 @@
 nodes come first, padding stays zero. An edge of length 0 (the odometry factor of a turn on
 the spot) is no entry of ``adj``; with the g-U-Net's ``model.edge_weight=distance`` (every
 shipped policy) its GCN weight would be 0 anyway, so nothing is lost; ``unit`` and
-``inverse`` do not see such an edge (explore_rl/models/graph_unet.py). A graph larger than ``N`` loses pose nodes that
-have no frontier edge, farthest from the current pose first (they matter least to where
-to go next); the current pose and the frontiers are never dropped.
+``inverse`` do not see such an edge (explore_rl/models/graph_unet.py).
+
+A graph larger than ``N`` loses pose nodes that have no frontier edge, farthest from the
+current pose first (they matter least to where to go next); the current pose and the
+frontiers are never dropped.
 """
 
 from __future__ import annotations

@@ -44,6 +44,18 @@ def run_main(script: str, args: list[str], capsys) -> tuple[int, str, str]:
     return code, out, err + message
 
 
+def script_runner(script: str, capsys):
+    """``call(*args)``: :func:`run_main` of ``script`` as ``SimpleNamespace(returncode, stdout, stderr)``,
+    the shape of a finished subprocess, for a test fixture."""
+    from types import SimpleNamespace
+
+    def call(*args: str) -> SimpleNamespace:
+        code, out, err = run_main(script, list(args), capsys)
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+
+    return call
+
+
 def run_script(script: str, *args: str, cwd: Path, timeout: float = 120.0) -> dict:
     """Run ``ROOT/script args``; fail unless it exits 0 with a JSON object as its last
     stdout line, and return that object."""

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from tests.benchmarks.smoke import ROOT, load_script, run_main
+from tests.benchmarks.smoke import ROOT, load_script, script_runner
 
 FOLDER = ROOT / "benchmarks" / "results" / "closure_probe"
 
@@ -26,11 +26,8 @@ def run(script: str, *args: str) -> subprocess.CompletedProcess:
 
 @pytest.fixture()
 def run_here(capsys):
-    """Run a script of closure_probe/ in this process (see tests/benchmarks/smoke.py: run_main)."""
-    def call(script: str, *args: str) -> SimpleNamespace:
-        code, out, err = run_main(f"benchmarks/results/closure_probe/{script}", list(args), capsys)
-        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
-    return call
+    """A script of closure_probe/ in this process (tests/benchmarks/smoke.py: run_main)."""
+    return lambda script, *args: script_runner(f"benchmarks/results/closure_probe/{script}", capsys)(*args)
 
 
 def test_relative_uncertainty_is_the_trace_of_the_difference_covariance():
@@ -60,7 +57,6 @@ def test_relative_uncertainty_is_the_trace_of_the_difference_covariance():
 
 
 def test_path_map_counts_the_landmarks_in_range_and_the_gain_of_one_observation():
-    from types import SimpleNamespace
 
     path_map = load_script("benchmarks/results/closure_probe/collect.py").path_map
     prediction = SimpleNamespace(poses=np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))

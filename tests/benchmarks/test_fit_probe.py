@@ -5,22 +5,18 @@ arguments are refused in one line."""
 from __future__ import annotations
 
 import json
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import run_main
+from tests.benchmarks.smoke import run_main, script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 @pytest.fixture()
 def run(capsys):
-    """Run the script in this process (see tests/benchmarks/smoke.py: run_main)."""
-    def call(*args: str) -> SimpleNamespace:
-        code, out, err = run_main("benchmarks/results/fit_probe/ensemble.py", list(args), capsys)
-        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
-    return call
+    """The script's main in this process (tests/benchmarks/smoke.py: run_main)."""
+    return script_runner("benchmarks/results/fit_probe/ensemble.py", capsys)
 
 
 def tiny_actor(directory, features: str, seed: int):

@@ -5,23 +5,19 @@ files, the pair's difference is loops - extended; bad arguments are refused in o
 from __future__ import annotations
 
 import json
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import run_main
+from tests.benchmarks.smoke import script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 
 @pytest.fixture()
 def run(capsys):
-    """The probe in this process (tests/benchmarks/smoke.py: run_main): no interpreter start per call."""
-    def call(*args: str) -> SimpleNamespace:
-        code, out, err = run_main("benchmarks/results/loop_feature/probe.py", list(args), capsys)
-        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
-    return call
+    """The script's main in this process (tests/benchmarks/smoke.py: run_main)."""
+    return script_runner("benchmarks/results/loop_feature/probe.py", capsys)
 
 
 @pytest.fixture()
