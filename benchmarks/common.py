@@ -34,6 +34,21 @@ def mean_ci95(values: list[float]) -> tuple[float, list[float] | None]:
     return mean, [mean - half, mean + half]
 
 
+def layout_clusters(layouts: np.ndarray) -> list[np.ndarray]:
+    """The rows of each distinct layout (the unit of :func:`cluster_bootstrap`)."""
+    return [np.flatnonzero(layouts == layout) for layout in np.unique(layouts)]
+
+
+def cluster_bootstrap(statistic: Callable[[np.ndarray], float], groups: list[np.ndarray], seed: int = 0,
+                      draws: int = 2000) -> list[float]:
+    """95 % percentile interval of ``statistic(rows)`` over ``groups`` (e.g. layouts) drawn with replacement:
+    decisions of one layout are not independent, so the layout is what is resampled."""
+    rng = np.random.default_rng(seed)
+    values = [statistic(np.concatenate([groups[i] for i in rng.integers(len(groups), size=len(groups))]))
+              for _ in range(draws)]
+    return [round(float(v), 4) for v in np.percentile(values, [2.5, 97.5])]
+
+
 def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:
     """Seconds per call of ``fn`` (one warm-up call first)."""
     fn()

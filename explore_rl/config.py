@@ -147,6 +147,7 @@ def validate(config: Config) -> None:
     if config.policy.name not in ("nearest", "random", "em", "learned"):
         raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random, em or learned")
     checks.non_negative("policy.revisit_bias", config.policy.revisit_bias)
+    checks.non_negative("policy.loop_bias", config.policy.loop_bias)
     checks.at_least("policy.em_top_k", config.policy.em_top_k, 0)
     config.env.validate()
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:

@@ -117,12 +117,18 @@ class PolicyConfig:
     revisits (the predicted loop closures) before the greedy choice -- a decision-time prior
     towards closing loops, not learned; 0 is the actor alone.
 
+    ``loop_bias`` (learned only): added to each frontier's logit per metre of its
+    ``loop_length`` (the pose-graph distance from the current keyframe to the farthest
+    keyframe its path revisits) -- a decision-time prior towards closing long loops, not
+    learned, whatever node features the actor reads; 0 is the actor alone.
+
     ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
-    probable frontiers (after ``revisit_bias``) by its utility -- a hybrid, not the learned
+    probable frontiers (after the priors) by its utility -- a hybrid, not the learned
     policy alone, that costs about what EM costs (EM's decision context dominates); a
     diagnostic of the actor's ranking; 0 is the actor alone."""
 
     name: str = "nearest"
     checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"
     revisit_bias: float = 0.0
+    loop_bias: float = 0.0
     em_top_k: int = 0

@@ -50,7 +50,7 @@ from explore_rl.graph.exploration_graph import (
     factor_edges,
     graph_from_estimates,
 )
-from explore_rl.graph.features import frontier_extras, has_frontier_extras, has_loop_length
+from explore_rl.graph.features import frontier_extras, has_frontier_extras, has_loop_length, loop_lengths
 from explore_rl.grid import GridSpec
 from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
@@ -306,6 +306,17 @@ def revisit_counts(graph: ExplorationGraph, encoded: EncodedGraph, actions: list
     return counts
 
 
+def loop_length_rows(graph: ExplorationGraph, encoded: EncodedGraph) -> np.ndarray:
+    """``(N,)``: each encoded frontier row's ``loop_length`` (the pose-graph distance from the
+    current keyframe to the farthest keyframe its path revisits; the ``loops`` node feature,
+    computed here whatever the actor reads); 0 on pose and padding rows."""
+    rows = np.flatnonzero(encoded.action_mask)
+    n_poses = int((graph.keyframe >= 0).sum())
+    values = np.zeros(len(encoded.action_mask), dtype=np.float32)
+    values[rows] = loop_lengths(n_poses, graph.edges, graph.weights, graph.current, encoded.nodes[rows])
+    return values
+
+
 def shortlist_rows(logits: torch.Tensor, action_mask: torch.Tensor, k: int) -> np.ndarray:
     """Rows of the ``k`` largest logits among the ``action_mask`` rows (all of them if fewer),
     most probable first; the first is :func:`greedy_row`'s."""
@@ -487,8 +498,11 @@ class LearnedPolicy:
     def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
                actions: list[Action]) -> torch.Tensor:
         """The logits the greedy choice reads: the actor's, plus ``policy.revisit_bias`` per
-        keyframe a frontier's path revisits (a prior towards closing loops; 0: the actor's)."""
-        bias = float(self.config.revisit_bias)
-        if bias == 0:
-            return logits
-        return logits + bias * torch.from_numpy(revisit_counts(graph, encoded, actions))
+        keyframe a frontier's path revisits and ``policy.loop_bias`` per metre of its
+        ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's)."""
+        revisit_bias, loop_bias = float(self.config.revisit_bias), float(self.config.loop_bias)
+        if revisit_bias:
+            logits = logits + revisit_bias * torch.from_numpy(revisit_counts(graph, encoded, actions))
+        if loop_bias:
+            logits = logits + loop_bias * torch.from_numpy(loop_length_rows(graph, encoded))
+        return logits

@@ -22,6 +22,7 @@ from explore_rl.planning.learned import (
     landmark_covariances,
     landmarks_near,
     landmarks_near_reference,
+    loop_length_rows,
     pairs_in_range,
     pairs_in_range_reference,
     pose_marginals,
@@ -150,6 +151,39 @@ def test_the_revisit_prior_adds_the_revisited_keyframes_to_the_logits(tmp_path):
     assert informative > 0
     with pytest.raises(ValueError, match="policy.revisit_bias") as error:
         load_config([*FAST, "policy.revisit_bias=-0.5"])
+    assert "\n" not in str(error.value)
+
+
+def test_the_loop_prior_adds_the_loop_length_to_the_logits(tmp_path):
+    """``policy.loop_bias`` on an actor of the extended set: each frontier row's value is the
+    ``loop_length`` column of the same state's ``loops`` graph (pose rows 0); with a bias far
+    above the logits' spread the choice is a frontier of the longest loop; the actor's own
+    logits are kept. A negative bias is refused in one line naming the key."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+    alone = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path)), config.planning, graph=config.graph)
+    biased = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), loop_bias=1e6), config.planning,
+                           graph=config.graph)
+    loop_column = feature_names("loops").index("loop_length")
+    informative = 0  # decisions whose frontiers close loops of different lengths
+    for decision, env_choice in env_decisions(config, learner, steps=6):
+        state = decision.state
+        assert alone.choose(state) == env_choice
+        graph, encoded = alone.last_graph, alone.last_encoded
+        lengths = loop_length_rows(graph, encoded)
+        loops = graph_features(state, decision.actions, alone.virtual_map(state.session.occupancy.grid),
+                               config.planning.em.backend, "loops")
+        rows = np.flatnonzero(encoded.action_mask)
+        np.testing.assert_allclose(lengths[rows], loops.features[encoded.nodes[rows], loop_column], rtol=1e-6)
+        assert not lengths[~encoded.action_mask].any()
+        choice = biased.choose(state)
+        np.testing.assert_array_equal(biased.last_logits, alone.last_logits)
+        chosen_row = rows[graph.candidate[encoded.nodes[rows]] == choice][0]
+        assert lengths[chosen_row] == lengths[rows].max()
+        informative += lengths[rows].max() > lengths[rows].min()
+    assert informative > 0
+    with pytest.raises(ValueError, match="policy.loop_bias") as error:
+        load_config([*FAST, "policy.loop_bias=-0.5"])
     assert "\n" not in str(error.value)
 
 

@@ -23,11 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from common import cluster_bootstrap as bootstrap  # noqa: E402  (a bootstrap over layouts)
+from common import layout_clusters  # noqa: E402
+
 DECISIONS = "/work/runs/closure_probe/decisions.jsonl"
 PROBE_EVERY = 4  # layouts with layout % 4 == 3 are held out
 FOLDS = 4
 PENALTIES = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0, 1000.0)
-BOOTSTRAP = 2000
 DROPPED = ("identity", "bearing")
 EXTRAS = ("loop_uncertainty", "path_map")  # identity is 1 on every frontier; bearing enters as cos and sin
 
@@ -101,19 +104,8 @@ def gains(scores: np.ndarray, rewards: np.ndarray, decision: np.ndarray, n: int)
     return gain, stakes
 
 
-def layout_groups(layouts: np.ndarray) -> list[np.ndarray]:
-    return [np.flatnonzero(layouts == layout) for layout in np.unique(layouts)]
-
-
 def gap_closed(gain: np.ndarray, stakes: np.ndarray, rows: np.ndarray) -> float:
     return float(gain[rows].sum() / max(stakes[rows].sum(), 1e-12))
-
-
-def bootstrap(statistic, groups: list[np.ndarray], seed: int = 0) -> list[float]:
-    rng = np.random.default_rng(seed)
-    values = [statistic(np.concatenate([groups[i] for i in rng.integers(len(groups), size=len(groups))]))
-              for _ in range(BOOTSTRAP)]
-    return [round(float(v), 4) for v in np.percentile(values, [2.5, 97.5])]
 
 
 def choose_penalty(rows: list[dict], extras: tuple[str, ...], pairwise: bool) -> float:
@@ -172,7 +164,7 @@ def main(argv: list[str] | None = None) -> None:
     train, held_out = [r for r, h in zip(rows, held) if not h], [r for r, h in zip(rows, held) if h]
     if not train or not held_out:
         sys.exit(f"--decisions {args.decisions}: needs layouts on both sides of the split (layout % 4 == 3 or not)")
-    groups = layout_groups(np.array([row["layout"] for row in held_out]))
+    groups = layout_clusters(np.array([row["layout"] for row in held_out]))
     every = np.arange(len(held_out))
     sets = [()] + [(group,) for group in args.extras] + ([tuple(args.extras)] if len(args.extras) > 1 else [])
     results = {}

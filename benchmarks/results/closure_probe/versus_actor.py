@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> None:
     if len(train_index) == 0 or len(probe_index) == 0:
         sys.exit(f"--dataset {args.dataset}: needs layouts on both sides of the split (layout % 4 == 3 or not)")
     train, held_out = frontier_rows(dataset, train_index, names), frontier_rows(dataset, probe_index, names)
-    groups = ridge.layout_groups(np.array([row["layout"] for row in held_out]))
+    groups = ridge.layout_clusters(np.array([row["layout"] for row in held_out]))
     every = np.arange(len(held_out))
     scored = {}
     for pairwise in (False, True):

@@ -29,7 +29,10 @@ from explore_rl.trainer.a2c import Learner, decision_stakes
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 from explore_rl.trainer.offline import save_offline_actor, train_offline
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
+from common import cluster_bootstrap as bootstrap  # noqa: E402  (a bootstrap over layouts)
+from common import layout_clusters as clusters  # noqa: E402
 from revisit_probe import greedy_learner  # noqa: E402  (an actor file's learner, with its model and features)
 
 DATASET = "/work/runs/data_scratch"
@@ -37,7 +40,6 @@ ACTOR = "policies/buildings_sparse_em_choice/actor.pt"
 TARGETS = ("em_choice", "em_choice_stakes")
 PROBE_EVERY = 4  # layouts with layout % 4 == 3 are the probe split
 CHUNK = 128
-BOOTSTRAP = 2000
 
 
 def learner_for(actor: str, target: str, lr: float) -> Learner:
@@ -91,19 +93,6 @@ def scores_of(logits_of, dataset: DecisionDataset, index: torch.Tensor, columns:
 def gap_closed(scores: dict, rows: np.ndarray) -> float:
     """Pooled offline gap closed of the decisions ``rows``."""
     return float(scores["gain"][rows].sum() / max(scores["stakes"][rows].sum(), 1e-12))
-
-
-def clusters(layouts: np.ndarray) -> list[np.ndarray]:
-    """The decision rows of each layout (the bootstrap's unit)."""
-    return [np.flatnonzero(layouts == layout) for layout in np.unique(layouts)]
-
-
-def bootstrap(statistic, groups: list[np.ndarray], seed: int = 0) -> list[float]:
-    """95 % percentile interval of ``statistic(rows)`` over layouts drawn with replacement."""
-    rng = np.random.default_rng(seed)
-    values = [statistic(np.concatenate([groups[i] for i in rng.integers(len(groups), size=len(groups))]))
-              for _ in range(BOOTSTRAP)]
-    return [round(float(v), 4) for v in np.percentile(values, [2.5, 97.5])]
 
 
 def figures(scores: dict, groups: list[np.ndarray]) -> dict:
