@@ -20,10 +20,12 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def load_script(script: str):
-    """Import ``ROOT/script`` as a module (its functions, without running its main)."""
+    """Import ``ROOT/script`` as a module (its functions, without running its main), under a name of its own."""
     path = ROOT / script
-    spec = importlib.util.spec_from_file_location(path.stem, path)
+    name = "script_" + "_".join(path.relative_to(ROOT).with_suffix("").parts[-2:])  # unique: several probe.py
+    spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # registered while it runs, as an import would (dataclasses look it up)
     spec.loader.exec_module(module)
     return module
 
