@@ -5,20 +5,23 @@ k beyond every action set is EM's own choice; bad arguments are refused in one l
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.smoke import script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
-SCRIPT = ROOT / "benchmarks" / "results" / "em_rerank" / "topk_probe.py"
+SCRIPT = "benchmarks/results/em_rerank/topk_probe.py"
 
 
-def test_the_probe_lets_em_pick_among_the_actors_k_most_probable_frontiers(tmp_path):
+@pytest.fixture
+def topk(capsys):
+    return script_runner(SCRIPT, capsys)
+
+
+def test_the_probe_lets_em_pick_among_the_actors_k_most_probable_frontiers(tmp_path, topk):
     from explore_rl.config import load_config
     from explore_rl.models.actor_file import load_actor
     from explore_rl.trainer.dataset import DecisionDataset, padded_batch
@@ -26,10 +29,9 @@ def test_the_probe_lets_em_pick_among_the_actors_k_most_probable_frontiers(tmp_p
 
     decisions, best = revisit_dataset(tmp_path / "data")
     actor_path, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
-    result = subprocess.run([sys.executable, str(SCRIPT), "--dataset", str(tmp_path / "data"), "--actor",
-                             str(actor_path), "--k", "1", "2", "50"], capture_output=True, text=True, cwd=ROOT)
+    result = topk("--dataset", str(tmp_path / "data"), "--actor", str(actor_path), "--k", "1", "2", "50")
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
     rows, summary = lines[:-1], lines[-1]
     assert [row["k"] for row in rows] == [1, 2, 50]
     probe = [i for i, d in enumerate(decisions) if int(d["layout"]) % 4 == 3]
@@ -58,7 +60,7 @@ def test_the_probe_lets_em_pick_among_the_actors_k_most_probable_frontiers(tmp_p
 
 
 @pytest.mark.parametrize("bad", [["--k", "0"], ["--dataset", "/nonexistent/data"], ["--actor", "/nonexistent.pt"]])
-def test_the_probe_refuses_bad_arguments_in_one_line(bad):
-    result = subprocess.run([sys.executable, str(SCRIPT), *bad], capture_output=True, text=True, cwd=ROOT)
+def test_the_probe_refuses_bad_arguments_in_one_line(bad, topk):
+    result = topk(*bad)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert bad[0] in result.stderr.strip().splitlines()[-1]

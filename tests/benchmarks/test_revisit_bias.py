@@ -4,19 +4,28 @@ computed here, the calibrated value is the first that revisits as much as EM's b
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.smoke import script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
-SCRIPT = ROOT / "benchmarks" / "results" / "revisit_bias" / "calibrate.py"
+SCRIPT = "benchmarks/results/revisit_bias/calibrate.py"
+DIAL = "benchmarks/results/revisit_bias/dial.py"
 
 
-def test_calibrate_picks_the_first_bias_that_revisits_as_much_as_em(tmp_path):
+@pytest.fixture
+def calibrate(capsys):
+    return script_runner(SCRIPT, capsys)
+
+
+@pytest.fixture
+def dial(capsys):
+    return script_runner(DIAL, capsys)
+
+
+def test_calibrate_picks_the_first_bias_that_revisits_as_much_as_em(tmp_path, calibrate):
     """With a bias far above the logits' spread the choice revisits the most keyframes of each decision
     (computed here from the dataset); EM's side is its best-rewarded frontier's; the calibrated bias is the
     first grid value whose choice revisits at least as much as EM's best, and the grid's first row is the
@@ -27,10 +36,9 @@ def test_calibrate_picks_the_first_bias_that_revisits_as_much_as_em(tmp_path):
 
     decisions, best = revisit_dataset(tmp_path / "data")
     actor, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
-    result = subprocess.run([sys.executable, str(SCRIPT), "--dataset", str(tmp_path / "data"), "--actor", str(actor),
-                             "--step", "500", "--top", "1000"], capture_output=True, text=True, cwd=ROOT)
+    result = calibrate("--dataset", str(tmp_path / "data"), "--actor", str(actor), "--step", "500", "--top", "1000")
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
     rows, summary = lines[:-1], lines[-1]
     assert [row["revisit_bias"] for row in rows] == [0.0, 500.0, 1000.0]
     column = feature_names("extended").index("revisits")
@@ -44,13 +52,10 @@ def test_calibrate_picks_the_first_bias_that_revisits_as_much_as_em(tmp_path):
 
 
 @pytest.mark.parametrize("bad", [["--step", "0"], ["--top", "-1"], ["--dataset", "/nonexistent/data"]])
-def test_calibrate_refuses_bad_arguments_in_one_line(bad):
-    result = subprocess.run([sys.executable, str(SCRIPT), *bad], capture_output=True, text=True, cwd=ROOT)
+def test_calibrate_refuses_bad_arguments_in_one_line(bad, calibrate):
+    result = calibrate(*bad)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert bad[0] in result.stderr.strip().splitlines()[-1] or bad[1] in result.stderr.strip().splitlines()[-1]
-
-
-DIAL = ROOT / "benchmarks" / "results" / "revisit_bias" / "dial.py"
 
 
 def targets_file(path, travel: float, equal_travel: float):
@@ -69,14 +74,13 @@ def targets_file(path, travel: float, equal_travel: float):
     ({0: (0.97, 1.23), 0.1: (1.01, 1.20), 0.2: (1.08, 1.10), 0.3: (1.09, 1.15)}, 0.2),  # the lowest admissible
     ({0: (0.97, 1.23), 0.1: (1.01, 1.19)}, None),  # lower, but not by more than the margin
 ])
-def test_the_dial_writes_the_pooled_rows_and_applies_the_validation_rule(tmp_path, points, adopted):
+def test_the_dial_writes_the_pooled_rows_and_applies_the_validation_rule(tmp_path, points, adopted, dial):
     args = []
     for bias, (travel, equal) in points.items():
         args += ["--entry", f"{bias}={targets_file(tmp_path / f'b{bias}', travel, equal)}"]
-    result = subprocess.run([sys.executable, str(DIAL), *args, "--out", str(tmp_path / "out")],
-                            capture_output=True, text=True, cwd=ROOT)
+    result = dial(*args, "--out", str(tmp_path / "out"))
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
     rows, summary = lines[:-1], lines[-1]
     assert [row["revisit_bias"] for row in rows] == sorted(float(b) for b in points)
     assert [(row["travel_ratio"], row["equal_travel_error_ratio"]) for row in rows] == [points[b] for b in sorted(points)]
@@ -87,7 +91,7 @@ def test_the_dial_writes_the_pooled_rows_and_applies_the_validation_rule(tmp_pat
 
 
 @pytest.mark.parametrize("bad", [["--entry", "x=targets.json"], ["--entry", "0.1=/nonexistent/targets.json"]])
-def test_the_dial_refuses_bad_entries_in_one_line(bad):
-    result = subprocess.run([sys.executable, str(DIAL), *bad], capture_output=True, text=True, cwd=ROOT)
+def test_the_dial_refuses_bad_entries_in_one_line(bad, dial):
+    result = dial(*bad)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert "--entry" in result.stderr.strip().splitlines()[-1]

@@ -15,6 +15,8 @@ import numpy as np
 from tensordict import TensorDict
 import pytest
 
+from tests.benchmarks.smoke import script_runner
+
 ROOT = Path(__file__).resolve().parents[2]
 FOLDER = ROOT / "benchmarks" / "results" / "selection_v6"
 SCRIPT = FOLDER / "reinterval.py"
@@ -89,7 +91,7 @@ def test_the_curve_script_reads_the_committed_validation_logs(tmp_path):
     assert (tmp_path / "curve_em_choice_long.png").stat().st_size > 1000
 
 
-def test_keep_actors_strips_to_a_loadable_actor_with_the_same_weights(tmp_path):
+def test_keep_actors_strips_to_a_loadable_actor_with_the_same_weights(tmp_path, capsys):
     """keep_actors.py on a training checkpoint (tiny model, made here): the kept file has only the actor's parts,
     loads as a policy with bitwise the same weights, and a file that is no training checkpoint is refused."""
     import torch
@@ -102,8 +104,8 @@ def test_keep_actors_strips_to_a_loadable_actor_with_the_same_weights(tmp_path):
     checkpoints.mkdir()
     training_checkpoint(checkpoints / "last.pt")
     assert {"critic", "optimizer"} <= set(torch.load(checkpoints / "last.pt", map_location="cpu", weights_only=False))
-    done = subprocess.run([sys.executable, str(FOLDER / "keep_actors.py"), str(checkpoints), str(tmp_path / "kept")],
-                          capture_output=True, text=True, cwd=ROOT)
+    keep = script_runner("benchmarks/results/selection_v6/keep_actors.py", capsys)
+    done = keep(str(checkpoints), str(tmp_path / "kept"))
     assert done.returncode == 0, done.stderr
     kept = torch.load(tmp_path / "kept" / "last.pt", map_location="cpu", weights_only=False)
     assert set(kept) == {"format", "model", "config", "actor", "state"}
@@ -112,8 +114,7 @@ def test_keep_actors_strips_to_a_loadable_actor_with_the_same_weights(tmp_path):
     assert all(torch.equal(a.weights[key], b.weights[key]) for key in a.weights)
 
     torch.save({"format": FORMAT}, checkpoints / "last.pt")
-    refused = subprocess.run([sys.executable, str(FOLDER / "keep_actors.py"), str(checkpoints), str(tmp_path / "k2")],
-                             capture_output=True, text=True, cwd=ROOT)
+    refused = keep(str(checkpoints), str(tmp_path / "k2"))
     assert refused.returncode != 0 and "not a training checkpoint" in refused.stderr
 
 
@@ -189,7 +190,7 @@ def revisit_dataset(path, count: int = 24, features: str = "extended"):
     return decisions, best
 
 
-def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path):
+def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path, capsys):
     """revisit_probe.py on a dataset and a tiny actor made here: EM's side equals the revisits and path lengths
     of the best-rewarded frontier computed here, one actor under two names gives the same figures, shares lie in
     [0, 1]; an actor of the paper's features, a malformed --actor, a missing actor file and a folder without a
@@ -200,9 +201,9 @@ def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path):
 
     decisions, best = revisit_dataset(tmp_path / "data")
     actor, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
-    script = [sys.executable, str(FOLDER / "revisit_probe.py"), "--dataset", str(tmp_path / "data")]
-    result = subprocess.run([*script, "--actor", f"a={actor}", "--actor", f"b={actor}"],
-                            capture_output=True, text=True, cwd=ROOT)
+    probe = script_runner("benchmarks/results/selection_v6/revisit_probe.py", capsys)
+    script = ["--dataset", str(tmp_path / "data")]
+    result = probe(*script, "--actor", f"a={actor}", "--actor", f"b={actor}")
     assert result.returncode == 0, result.stderr
     figures = json.loads(result.stdout.strip().splitlines()[-1])
     assert figures["a"] == figures["b"] and figures["a"]["decisions"] == len(decisions)
@@ -215,11 +216,11 @@ def test_the_revisit_probe_reads_each_actor_with_its_own_model(tmp_path):
     for key in ("policy_any_revisit", "same_choice"):
         assert 0.0 <= figures["a"][key] <= 1.0
     paper, _ = actor_file(tmp_path / "paper", load_config([*TINY_MODEL, "graph.features=paper"]))
-    refused = subprocess.run([*script, "--actor", f"p={paper}"], capture_output=True, text=True, cwd=ROOT)
+    refused = probe(*script, "--actor", f"p={paper}")
     assert refused.returncode != 0 and "graph.features=extended" in refused.stderr.strip().splitlines()[-1]
-    malformed = subprocess.run([*script, "--actor", str(actor)], capture_output=True, text=True, cwd=ROOT)
+    malformed = probe(*script, "--actor", str(actor))
     assert malformed.returncode != 0 and "NAME=PATH" in malformed.stderr
     for bad in (["--actor", f"a={tmp_path / 'missing.pt'}"], ["--actor", f"a={actor}", "--dataset", str(tmp_path)]):
-        refused = subprocess.run([*script, *bad], capture_output=True, text=True, cwd=ROOT)
+        refused = probe(*script, *bad)
         last = refused.stderr.strip().splitlines()[-1]
         assert refused.returncode != 0 and "Traceback" not in refused.stderr and str(tmp_path) in last

@@ -5,20 +5,23 @@ bad arguments are refused in one line."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import ROOT
+from tests.benchmarks.smoke import script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
-SCRIPT = ROOT / "benchmarks" / "results" / "stakes_distill" / "probe.py"
+SCRIPT = "benchmarks/results/stakes_distill/probe.py"
 
 
-def test_the_probe_scores_the_start_on_the_held_out_layouts_and_trains_both_targets(tmp_path):
+@pytest.fixture
+def probe(capsys):
+    return script_runner(SCRIPT, capsys)
+
+
+def test_the_probe_scores_the_start_on_the_held_out_layouts_and_trains_both_targets(tmp_path, probe):
     """Step 0's agreement and offline gap closed are the tiny actor's greedy picks on the decisions of layouts
     3 and 7, computed here with the actor; both targets write an actor file; the difference is second - first."""
     from explore_rl.config import load_config
@@ -28,11 +31,10 @@ def test_the_probe_scores_the_start_on_the_held_out_layouts_and_trains_both_targ
 
     decisions, best = revisit_dataset(tmp_path / "data")
     actor_path, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
-    result = subprocess.run([sys.executable, str(SCRIPT), "--dataset", str(tmp_path / "data"), "--actor",
-                             str(actor_path), "--steps", "4", "--every", "2", "--out", str(tmp_path / "out")],
-                            capture_output=True, text=True, cwd=ROOT)
+    result = probe("--dataset", str(tmp_path / "data"), "--actor", str(actor_path), "--steps", "4", "--every", "2",
+                   "--out", str(tmp_path / "out"))
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
     rows, summary = lines[:-1], lines[-1]
     assert [(row["target"], row["steps"]) for row in rows] == [
         ("em_choice", 0), ("em_choice", 2), ("em_choice", 4),
@@ -65,7 +67,7 @@ def test_the_probe_scores_the_start_on_the_held_out_layouts_and_trains_both_targ
 
 
 @pytest.mark.parametrize("bad", [["--steps", "0"], ["--lr", "0"], ["--dataset", "/nonexistent/data"]])
-def test_the_probe_refuses_bad_arguments_in_one_line(bad):
-    result = subprocess.run([sys.executable, str(SCRIPT), *bad], capture_output=True, text=True, cwd=ROOT)
+def test_the_probe_refuses_bad_arguments_in_one_line(bad, probe):
+    result = probe(*bad)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     assert bad[0] in result.stderr.strip().splitlines()[-1]
