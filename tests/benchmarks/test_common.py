@@ -1,14 +1,16 @@
-"""benchmarks/common.py: the t interval the paired-round benchmarks report."""
+"""benchmarks/common.py: the t interval the paired-round benchmarks report, and the bootstrap over layouts the
+offline probes report."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from common import mean_ci95  # noqa: E402
+from common import cluster_bootstrap, layout_clusters, mean_ci95  # noqa: E402
 
 
 def test_mean_ci95_matches_the_textbook_t_interval() -> None:
@@ -21,3 +23,18 @@ def test_mean_ci95_matches_the_textbook_t_interval() -> None:
 
 def test_mean_ci95_has_no_interval_for_one_value() -> None:
     assert mean_ci95([1.7]) == (1.7, None)
+
+
+def test_layout_clusters_are_the_rows_of_each_layout() -> None:
+    groups = layout_clusters(np.array([3, 1, 3, 2, 1]))
+    assert [group.tolist() for group in groups] == [[1, 4], [3], [0, 2]]
+
+
+def test_the_bootstrap_resamples_whole_layouts_not_rows() -> None:
+    """One layout of 1 decision scoring 0, one of 99 scoring 1: drawing layouts, both draws are the first one a
+    quarter of the time, so the interval reaches 0; drawing rows it would stay near 0.99."""
+    values = np.r_[0.0, np.ones(99)]
+    groups = layout_clusters(np.r_[0, np.ones(99, dtype=int)])
+    low, high = cluster_bootstrap(lambda rows: float(values[rows].mean()), groups, seed=1)
+    assert low == 0.0 and high == 1.0
+    assert cluster_bootstrap(lambda rows: float(values[rows].mean()), groups, seed=1) == [low, high]
