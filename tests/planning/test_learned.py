@@ -123,67 +123,45 @@ def test_extended_features_are_the_environments_too(tmp_path, features, width):
         assert policy.choose(state) == env_choice
 
 
-def test_the_revisit_prior_adds_the_revisited_keyframes_to_the_logits(tmp_path):
-    """``policy.revisit_bias``: each frontier row's count is the ``revisits`` feature of the
-    extended graph (pose rows 0); with 0 the choice is the actor's greedy one; with a bias far
-    above the logits' spread it is a frontier revisiting the most keyframes; the actor's own
-    logits are kept either way. A negative bias is refused in one line naming the key."""
+PRIORS = {  # policy key: (its per-row values, the node feature they equal and the feature set that has it)
+    "revisit_bias": (lambda graph, encoded, actions: revisit_counts(graph, encoded, actions), "revisits", "extended"),
+    "loop_bias": (lambda graph, encoded, actions: loop_length_rows(graph, encoded), "loop_length", "loops"),
+}
+
+
+@pytest.mark.parametrize("key", sorted(PRIORS))
+def test_a_prior_adds_its_node_feature_to_the_logits(tmp_path, key):
+    """``policy.revisit_bias`` / ``policy.loop_bias`` on an actor of the extended set: each frontier row's value is
+    the ``revisits`` / ``loop_length`` column of the same state's graph of a set that has it (pose rows 0); with 0
+    the choice is the actor's greedy one; with a bias far above the logits' spread it is a frontier of the largest
+    value; the actor's own logits are kept either way. A negative bias is refused in one line naming the key."""
+    values_of, column, feature_set = PRIORS[key]
     config = load_config([*FAST, "graph.features=extended"])
     path, learner = actor_file(tmp_path, config)
     alone = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path)), config.planning, graph=config.graph)
-    biased = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), revisit_bias=1e6), config.planning,
+    biased = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), **{key: 1e6}), config.planning,
                            graph=config.graph)
-    revisit_column = feature_names("extended").index("revisits")
-    informative = 0  # decisions whose frontiers revisit different numbers of keyframes
+    informative = 0  # decisions whose frontiers differ in the prior's value
     for decision, env_choice in env_decisions(config, learner, steps=6):
         state = decision.state
         assert alone.choose(state) == env_choice
         graph, encoded = alone.last_graph, alone.last_encoded
-        counts = revisit_counts(graph, encoded, decision.actions)
+        values = values_of(graph, encoded, decision.actions)
+        reference = graph_features(state, decision.actions, alone.virtual_map(state.session.occupancy.grid),
+                                   config.planning.em.backend, feature_set)
         rows = np.flatnonzero(encoded.action_mask)
-        np.testing.assert_array_equal(counts[rows], graph.features[encoded.nodes[rows], revisit_column])
-        assert not counts[~encoded.action_mask].any()
+        np.testing.assert_allclose(values[rows], reference.features[encoded.nodes[rows],
+                                                                    feature_names(feature_set).index(column)],
+                                   rtol=1e-6)
+        assert not values[~encoded.action_mask].any()
         choice = biased.choose(state)
         np.testing.assert_array_equal(biased.last_logits, alone.last_logits)
         chosen_row = rows[graph.candidate[encoded.nodes[rows]] == choice][0]
-        assert counts[chosen_row] == counts[rows].max()
-        informative += counts[rows].max() > counts[rows].min()
+        assert values[chosen_row] == values[rows].max()
+        informative += values[rows].max() > values[rows].min()
     assert informative > 0
-    with pytest.raises(ValueError, match="policy.revisit_bias") as error:
-        load_config([*FAST, "policy.revisit_bias=-0.5"])
-    assert "\n" not in str(error.value)
-
-
-def test_the_loop_prior_adds_the_loop_length_to_the_logits(tmp_path):
-    """``policy.loop_bias`` on an actor of the extended set: each frontier row's value is the
-    ``loop_length`` column of the same state's ``loops`` graph (pose rows 0); with a bias far
-    above the logits' spread the choice is a frontier of the longest loop; the actor's own
-    logits are kept. A negative bias is refused in one line naming the key."""
-    config = load_config([*FAST, "graph.features=extended"])
-    path, learner = actor_file(tmp_path, config)
-    alone = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path)), config.planning, graph=config.graph)
-    biased = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), loop_bias=1e6), config.planning,
-                           graph=config.graph)
-    loop_column = feature_names("loops").index("loop_length")
-    informative = 0  # decisions whose frontiers close loops of different lengths
-    for decision, env_choice in env_decisions(config, learner, steps=6):
-        state = decision.state
-        assert alone.choose(state) == env_choice
-        graph, encoded = alone.last_graph, alone.last_encoded
-        lengths = loop_length_rows(graph, encoded)
-        loops = graph_features(state, decision.actions, alone.virtual_map(state.session.occupancy.grid),
-                               config.planning.em.backend, "loops")
-        rows = np.flatnonzero(encoded.action_mask)
-        np.testing.assert_allclose(lengths[rows], loops.features[encoded.nodes[rows], loop_column], rtol=1e-6)
-        assert not lengths[~encoded.action_mask].any()
-        choice = biased.choose(state)
-        np.testing.assert_array_equal(biased.last_logits, alone.last_logits)
-        chosen_row = rows[graph.candidate[encoded.nodes[rows]] == choice][0]
-        assert lengths[chosen_row] == lengths[rows].max()
-        informative += lengths[rows].max() > lengths[rows].min()
-    assert informative > 0
-    with pytest.raises(ValueError, match="policy.loop_bias") as error:
-        load_config([*FAST, "policy.loop_bias=-0.5"])
+    with pytest.raises(ValueError, match=f"policy.{key}") as error:
+        load_config([*FAST, f"policy.{key}=-0.5"])
     assert "\n" not in str(error.value)
 
 
