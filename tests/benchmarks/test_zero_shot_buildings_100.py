@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from tests.benchmarks.smoke import ROOT, run_script
+from tests.benchmarks.smoke import run_script, script_runner
 
 SCRIPT = "benchmarks/results/zero_shot_buildings_100/association.py"
 CLOSURE_RATES = (2.0, 1.6, 1.2, 0.8, 0.5, 0.3)  # the policy's loop closures per decision; EM closes 1
@@ -54,10 +52,11 @@ def test_ratios_rank_correlation_and_split_by_closures(tmp_path: Path) -> None:
     assert math.isclose(split["closes_fewer"]["error_ratio"], geometric_mean(ERROR_RATIOS[3:]), rel_tol=1e-9)
 
 
-def test_bad_reports_fail_in_one_line(tmp_path: Path) -> None:
+def test_bad_reports_fail_in_one_line(tmp_path: Path, capsys) -> None:
+    association = script_runner(SCRIPT, capsys)
+
     def refusal(*args: str) -> str:
-        proc = subprocess.run([sys.executable, str(ROOT / SCRIPT), *args], cwd=tmp_path, capture_output=True,
-                              text=True)
+        proc = association(*args)
         assert proc.returncode != 0
         return proc.stderr.strip().splitlines()[-1]
 
