@@ -36,7 +36,7 @@ from common import emit, machine  # noqa: E402
 from explore_rl import comparison, zero_shot  # noqa: E402
 
 
-def parse_args() -> argparse.Namespace:
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("reports", nargs="+", help="explore-rl-eval output folders")
     parser.add_argument("--out", default=None, help="write targets.{md,json} here (one sub-folder per report) "
@@ -56,7 +56,7 @@ def parse_args() -> argparse.Namespace:
                              "and the reference together (SCENE_map_error.png, SCENE_volume.png beside targets.md)")
     parser.add_argument("--resamples", type=int, default=zero_shot.RESAMPLES, help="bootstrap resamples")
     parser.add_argument("--smoke", action="store_true", help="for the test suite: 50 resamples")
-    return parser.parse_args()
+    return parser.parse_args(argv)
 
 
 def read_report(folder: Path, argument: str = "") -> list[dict]:
@@ -119,8 +119,8 @@ def plot(runs: list[dict], out: Path, policy: str, reference: str) -> list[Path]
             for path in comparison.plot_scene(shown, scene, out)]
 
 
-def main() -> None:
-    args = parse_args()
+def main(argv: list[str] | None = None) -> None:
+    args = parse_args(argv)
     folders = [Path(name) for name in args.reports]
     if args.reference is not None and len(args.reference) != len(folders):
         raise SystemExit(f"--reference: {len(args.reference)} folder(s) for {len(folders)} report(s); "

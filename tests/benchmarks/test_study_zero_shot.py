@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.benchmarks.smoke import ROOT, run_script
+from tests.benchmarks.smoke import ROOT, run_script, script_runner
 
 SCRIPT = "benchmarks/study_zero_shot.py"
 
@@ -106,28 +106,35 @@ def test_policy_em_against_another_em_run(runs: dict[str, Path], tmp_path: Path)
     assert "em against em_reference" in (tmp_path / "floor/first_em/targets.md").read_text()
 
 
-def run_failing(*args: str, cwd: Path) -> str:
-    proc = subprocess.run([sys.executable, str(ROOT / SCRIPT), *args], cwd=cwd, capture_output=True, text=True,
-                          timeout=120)
-    assert proc.returncode != 0, proc.stdout
-    return proc.stderr.strip().splitlines()[-1]
+@pytest.fixture()
+def run_failing(capsys):
+    """``call(*args)``: the script's main in this process, which must refuse; its last stderr line."""
+    study = script_runner(SCRIPT, capsys)
+
+    def call(*args: str) -> str:
+        proc = study(*args)
+        assert proc.returncode != 0, proc.stdout
+        return proc.stderr.strip().splitlines()[-1]
+
+    return call
 
 
-def test_reference_count_and_missing_scenes_fail_in_one_line(runs: dict[str, Path], tmp_path: Path) -> None:
-    message = run_failing(str(runs["first_learned"]), "--reference", str(runs["first_em"]), str(runs["second_em"]),
-                          cwd=tmp_path)
+def test_reference_count_and_missing_scenes_fail_in_one_line(runs: dict[str, Path], tmp_path: Path,
+                                                            run_failing) -> None:
+    message = run_failing(str(runs["first_learned"]), "--reference", str(runs["first_em"]), str(runs["second_em"]))
     assert "--reference: 2 folder(s) for 1 report(s)" in message
     partial = write_report(tmp_path / "partial_em", {"b_1": [trial("b_1", "em", 10.0, 0.1, 40.0)]})
-    message = run_failing(str(runs["first_learned"]), "--reference", str(partial), cwd=tmp_path)
+    message = run_failing(str(runs["first_learned"]), "--reference", str(partial))
     assert "no em trial of scene(s) b_2" in message
-    message = run_failing(str(runs["first_learned"]), "--reference", str(tmp_path / "nope"), cwd=tmp_path)
+    message = run_failing(str(runs["first_learned"]), "--reference", str(tmp_path / "nope"))
     assert message.startswith("--reference ") and "no trials.jsonl" in message
-    message = run_failing(str(runs["first_learned"]), "--reference-policy", "learned", cwd=tmp_path)
+    message = run_failing(str(runs["first_learned"]), "--reference-policy", "learned")
     assert "pass --reference FOLDER" in message
-    message = run_failing(str(runs["first_em"]), "--policy", "em", "--reference-policy", "em", cwd=tmp_path)
+    message = run_failing(str(runs["first_em"]), "--policy", "em", "--reference-policy", "em")
     assert "pass --reference FOLDER" in message
 
 
-def test_reference_refuses_a_report_with_its_own_reference_trials(runs: dict[str, Path], tmp_path: Path) -> None:
-    message = run_failing(str(runs["first_em"]), "--reference", str(runs["second_em"]), cwd=tmp_path)
+def test_reference_refuses_a_report_with_its_own_reference_trials(runs: dict[str, Path], tmp_path: Path,
+                                                                 run_failing) -> None:
+    message = run_failing(str(runs["first_em"]), "--reference", str(runs["second_em"]))
     assert "has em trials of its own" in message
