@@ -49,6 +49,20 @@ def cluster_bootstrap(statistic: Callable[[np.ndarray], float], groups: list[np.
     return [round(float(v), 4) for v in np.percentile(values, [2.5, 97.5])]
 
 
+def add_bias_grid(parser: argparse.ArgumentParser, step: float, top: float) -> None:
+    """``--step`` and ``--top`` of a grid of prior strengths ``0, step, ..., top`` (:func:`bias_grid`)."""
+    parser.add_argument("--step", type=float, default=step, help="grid step of the bias (> 0)")
+    parser.add_argument("--top", type=float, default=top, help="largest bias of the grid (>= 0)")
+
+
+def bias_grid(parser: argparse.ArgumentParser, args: argparse.Namespace) -> np.ndarray:
+    """The grid ``0, step, ..., top`` of :func:`add_bias_grid`'s arguments; a bad step or top is a one-line
+    argparse error."""
+    if not args.step > 0 or not args.top >= 0:
+        parser.error(f"--step {args.step} --top {args.top}: give a step > 0 and a top >= 0")
+    return np.round(np.arange(0.0, args.top + args.step / 2, args.step), 9)
+
+
 def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:
     """Seconds per call of ``fn`` (one warm-up call first)."""
     fn()

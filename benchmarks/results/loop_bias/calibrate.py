@@ -32,7 +32,7 @@ from explore_rl.trainer.dataset import DecisionDataset, padded_batch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
-from common import cluster_bootstrap, layout_clusters  # noqa: E402  (a bootstrap over layouts)
+from common import add_bias_grid, bias_grid, cluster_bootstrap, layout_clusters  # noqa: E402
 from revisit_probe import greedy_learner  # noqa: E402  (an actor file's learner, with its model and features)
 
 DATASET = "/work/runs/data_scratch_loops"
@@ -105,10 +105,10 @@ def grid_row(scores: dict[str, np.ndarray], bias: float) -> dict:
 
 def calibrate(decisions: Decisions, grid: np.ndarray) -> tuple[list[dict], dict]:
     """Every grid value's figures, and the summary: the calibrated bias and its paired gain over 0."""
-    scores = {float(bias): per_decision(decisions, float(bias)) for bias in grid}
-    rows = [grid_row(value, bias) for bias, value in scores.items()]
-    best = max(rows, key=lambda row: (row["gap_closed"], -row["loop_bias"]))
-    chosen, alone = scores[float(grid[[row["loop_bias"] for row in rows].index(best["loop_bias"])])], scores[0.0]
+    scores = [per_decision(decisions, float(bias)) for bias in grid]
+    rows = [grid_row(value, float(bias)) for bias, value in zip(grid, scores)]
+    pick = max(range(len(rows)), key=lambda i: (rows[i]["gap_closed"], -rows[i]["loop_bias"]))
+    best, chosen, alone = rows[pick], scores[pick], scores[0]
     groups = layout_clusters(decisions.layouts)
     difference = cluster_bootstrap(lambda r: gap_closed(chosen, r) - gap_closed(alone, r), groups)
     return rows, {"loop_bias": best["loop_bias"], "at_bias": best, "alone": rows[0],
@@ -120,18 +120,15 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default=DATASET, help="a DecisionDataset folder with the loop_length column")
     parser.add_argument("--actor", default=ACTOR, help="actor file or training checkpoint (reads revisits)")
-    parser.add_argument("--step", type=float, default=0.01, help="grid step of the bias (> 0)")
-    parser.add_argument("--top", type=float, default=0.3, help="largest bias of the grid (>= 0)")
+    add_bias_grid(parser, step=0.01, top=0.3)
     args = parser.parse_args(argv)
-    if not args.step > 0 or not args.top >= 0:
-        parser.error(f"--step {args.step} --top {args.top}: give a step > 0 and a top >= 0")
+    grid = bias_grid(parser, args)
     try:  # every input checked before the actor runs
         dataset = DecisionDataset(args.dataset)
         dataset.columns_for([LOOP, "revisits"])
         read_actor_file(args.actor)
     except (ValueError, CheckpointError) as error:
         parser.error(f"--dataset/--actor: {error}")
-    grid = np.round(np.arange(0.0, args.top + args.step / 2, args.step), 9)
     rows, summary = calibrate(scored(args.actor, dataset), grid)
     for row in rows:
         print(json.dumps(row))

@@ -23,7 +23,9 @@ from explore_rl.models.actor_file import read_actor_file
 from explore_rl.models.checkpoint import CheckpointError
 from explore_rl.trainer.dataset import DecisionDataset
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
+from common import add_bias_grid, bias_grid  # noqa: E402  (the grid of prior strengths)
 from revisit_probe import figures, scored_decisions  # noqa: E402  (the probe's figures, with the bias)
 
 DATASET = "/work/runs/data_scratch"
@@ -42,17 +44,14 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default=DATASET, help="a DecisionDataset folder (EM's rewards of every frontier)")
     parser.add_argument("--actor", default=ACTOR, help="actor file or training checkpoint (graph.features=extended)")
-    parser.add_argument("--step", type=float, default=0.05, help="grid step of the bias (> 0)")
-    parser.add_argument("--top", type=float, default=5.0, help="largest bias of the grid (>= 0)")
+    add_bias_grid(parser, step=0.05, top=5.0)
     args = parser.parse_args(argv)
-    if not args.step > 0 or not args.top >= 0:
-        parser.error(f"--step {args.step} --top {args.top}: give a step > 0 and a top >= 0")
+    grid = bias_grid(parser, args)
     try:  # every input checked before the actor runs
         dataset = DecisionDataset(args.dataset)
         read_actor_file(args.actor)
     except (ValueError, CheckpointError) as error:
         parser.error(str(error))
-    grid = np.arange(0.0, args.top + args.step / 2, args.step)
     bias, rows = calibrate(scored_decisions(args.actor, dataset), grid)
     for row in rows:
         print(json.dumps(row))
