@@ -19,10 +19,15 @@ the reference run (``same_explored``: explored fractions within 1 point; the mod
 differ by at most a cell per keyframe, and the model loop closer reads the map, so the
 runs' SLAM estimates drift apart a little).
 
+``--fast-set KEY=VALUE ...`` applies overrides to the incremental replays only: e.g.
+``slam=model_45deg`` (0.5 m / 45 deg keyframes) against the reference rebuild at the default
+0.5 m / 15 deg, the drive before issue 22 (its map checks hold within the fast run).
+
 ``--profile PATH`` also writes a cProfile table (by own time) of one more incremental
 replay of the first seed to PATH (not part of the timed figures).
 
-    python benchmarks/bench_drive.py [--quick | --smoke] [--set KEY=VALUE ...] [--profile PATH]
+    python benchmarks/bench_drive.py [--quick | --smoke] [--set KEY=VALUE ...] [--fast-set KEY=VALUE ...]
+        [--profile PATH]
 """
 
 from __future__ import annotations
@@ -170,9 +175,16 @@ def parse_args() -> argparse.Namespace:
                         help="a few seconds, for the test suite: checks that it runs; figures are meaningless")
     parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
                         help="extra config overrides for every run (e.g. slam.keyframe_distance=1.0)")
+    parser.add_argument("--fast-set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
+                        help="overrides of the incremental replays only (e.g. slam=model_45deg)")
     parser.add_argument("--profile", type=Path, default=None, metavar="PATH",
                         help="write a cProfile table of an incremental replay of the first seed here")
     return parser.parse_args()
+
+
+def overrides(args: argparse.Namespace, mode: str) -> list[str]:
+    """Config overrides of a ``mode`` replay: ``--set``, and ``--fast-set`` for the incremental one."""
+    return [*args.set, *args.fast_set] if mode == "incremental" else list(args.set)
 
 
 def main() -> None:
@@ -187,11 +199,11 @@ def main() -> None:
         best: dict[str, dict] = {}
         for _ in range(repeats):
             for mode in MODES:
-                run = replay(seed, decisions, mode, paths, args.set)
+                run = replay(seed, decisions, mode, paths, overrides(args, mode))
                 if mode not in best or run["seconds"] < best[mode]["seconds"]:
                     best[mode] = run
         if args.profile is not None and seed == seeds[0]:
-            profile = write_profile(args.profile, seed, decisions, paths, args.set)
+            profile = write_profile(args.profile, seed, decisions, paths, overrides(args, "incremental"))
         n_decisions += seed_decisions
         totals["follow"] += follow
         for mode, run in best.items():
@@ -216,7 +228,7 @@ def main() -> None:
     drive_reference = per_decision(totals["follow"] + totals["rebuild"])
     keyframes = sum(c["keyframes"] for c in checks)
     result = {
-        "smoke": args.smoke, "quick": args.quick, "overrides": args.set, "seeds": seeds, "repeats": repeats,
+        "smoke": args.smoke, "quick": args.quick, "overrides": args.set, "fast_overrides": args.fast_set, "seeds": seeds, "repeats": repeats,
         "decisions": n_decisions, "keyframes": keyframes,
         "keyframes_per_decision": round(keyframes / max(n_decisions, 1), 1),
         "drive_ms_per_decision": drive,

@@ -11,7 +11,12 @@ mean ATE, map error and loop closures within the spread (min..max over seeds) of
 the default spacing; and how far the model's keyframes per metre (its graph size) stray
 from icp's at the default spacing (the learned policy sees one pose node per keyframe).
 
-    python benchmarks/study_keyframes.py [--quick | --smoke]
+    python benchmarks/study_keyframes.py [--quick | --smoke] [--seeds 0-7] [--spacings 0.5:45 ...]
+        [--model-set KEY=VALUE ...]
+
+``--model-set``: config overrides of the model's replays at every spacing but the default
+one, e.g. the settings of ``slam=model_45deg`` (a loop-closure fit made at that spacing and
+its "worth it" stand-in) to check them against icp at the same spacing.
 """
 
 from __future__ import annotations
@@ -38,10 +43,12 @@ DEFAULT = (0.5, 15.0)
 SPACINGS = [DEFAULT, (0.5, 30.0), (0.5, 45.0), (0.75, 45.0), (1.0, 45.0)]
 
 
-def replay(seed: int, steps: list, frontend: str, spacing: tuple[float, float], draw: int) -> dict:
-    """The recorded steps into a ``frontend`` session at ``spacing`` (metres, degrees)."""
+def replay(seed: int, steps: list, frontend: str, spacing: tuple[float, float], draw: int,
+           overrides: tuple[str, ...] = ()) -> dict:
+    """The recorded steps into a ``frontend`` session at ``spacing`` (metres, degrees), with
+    config ``overrides``."""
     config = load_config([f"seed={seed}", "slam=icp", f"slam.keyframe_distance={spacing[0]}",
-                          f"slam.keyframe_angle_deg={spacing[1]}"])
+                          f"slam.keyframe_angle_deg={spacing[1]}", *overrides])
     config.scene.start_index = config.tour.start_index
     scene = make_scene(config.scene, config.robot, config.lidar)
     session = new_session(config, scene, frontend)
@@ -85,19 +92,47 @@ def summarise(runs: dict, seeds: list[int]) -> list[dict]:
     return rows
 
 
+def spacing_arg(text: str) -> tuple[float, float]:
+    """``0.5:45`` -> (0.5, 45.0): metres, degrees."""
+    distance, angle = text.split(":")
+    return float(distance), float(angle)
+
+
+def seed_range(text: str) -> list[int]:
+    """``0-7`` -> [0, ..., 7]; ``0,3`` -> [0, 3]."""
+    if "-" in text:
+        first, last = text.split("-")
+        return list(range(int(first), int(last) + 1))
+    return [int(seed) for seed in text.split(",")]
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--spacings", nargs="+", type=spacing_arg, metavar="METRES:DEG",
+                        help="spacings besides the default 0.5:15 (default: the study's grid)")
+    parser.add_argument("--model-set", nargs="+", default=[], metavar="KEY=VALUE",
+                        help="config overrides of the model's replays at the non-default spacings")
+    parser.add_argument("--seeds", type=seed_range, help="tour seeds, e.g. 0-7 (default 0-4)")
+
+
 def main() -> None:
-    args = parse_args(__doc__.splitlines()[0])
+    args = parse_args(__doc__.splitlines()[0], add_arguments=add_arguments)
     seeds, goals_limit, draws, spacings = [0, 1, 2, 3, 4], None, 2, SPACINGS
+    if args.spacings:
+        spacings = [DEFAULT, *[s for s in args.spacings if s != DEFAULT]]
+    if args.seeds:
+        seeds = args.seeds
     if args.quick:
         seeds, goals_limit, draws = [0, 1, 2], 6, 1
     if args.smoke:
-        seeds, goals_limit, draws, spacings = [0], 1, 1, [DEFAULT, (1.0, 45.0)]
+        seeds, goals_limit, draws = [0], 1, 1
+        spacings = spacings if args.spacings else [DEFAULT, (1.0, 45.0)]
     runs: dict = {}
     for seed in seeds:
         steps = in_fresh_process(drive_icp, seed, goals_limit)["steps"]
         for spacing in spacings:
             for frontend, n in (("icp", 1), ("model", draws)):
-                rows = [in_fresh_process(replay, seed, steps, frontend, spacing, d) for d in range(n)]
+                overrides = tuple(args.model_set) if frontend == "model" and spacing != DEFAULT else ()
+                rows = [in_fresh_process(replay, seed, steps, frontend, spacing, d, overrides) for d in range(n)]
                 runs.setdefault((frontend, spacing), {})[seed] = rows
                 r = rows[0]
                 print(f"seed {seed} {frontend:5s} {spacing[0]:.2f} m {spacing[1]:4.0f} deg: {r['keyframes']:4d} kf  "
@@ -107,6 +142,7 @@ def main() -> None:
     for row in table:
         print({k: v for k, v in row.items() if k != "within_icp_default_spread"}, flush=True)
     emit({"study": "keyframes", "quick": args.quick, "smoke": args.smoke, "seeds": seeds, "draws": draws,
+          "model_set": args.model_set,
           "machine": machine(), "table": table})
 
 

@@ -25,7 +25,7 @@ from explore_rl.robot_config import RobotConfig
 from explore_rl.run_config import POLICIES, EvaluateConfig, ExploreConfig, TourConfig
 from explore_rl.scene.config import SceneConfig, validate_building
 from explore_rl.sensors.config import LidarConfig
-from explore_rl.slam.config import SlamConfig
+from explore_rl.slam.config import SlamConfig, loop_closures_path
 from explore_rl.trainer.config import (
     ESTIMATORS,
     DISTILL_TARGETS,
@@ -231,6 +231,12 @@ def validate_slam(config: Config) -> None:
     checks.positive("slam.keyframe_distance", slam.keyframe_distance)
     checks.in_range("slam.keyframe_angle_deg", slam.keyframe_angle_deg, 0.0, 180.0, low_open=True)
     checks.at_least("slam.map_error_points", slam.map_error_points, 1)
+    checks.positive("slam.loop_closure.model_step_sigma_translation", slam.loop_closure.model_step_sigma_translation)
+    checks.positive("slam.loop_closure.model_step_sigma_rotation_deg", slam.loop_closure.model_step_sigma_rotation_deg)
+    calibration = slam.loop_closure.calibration_file
+    if slam.frontend == "model" and calibration and not loop_closures_path(calibration).is_file():
+        raise ValueError(f"slam.loop_closure.calibration_file={calibration!r}: no such file (give a path, or a "
+                         "file name in conf/calibration/; write one with scripts/calibrate_loop_closures.py --out)")
 
 
 def validate_explore(config: Config) -> None:

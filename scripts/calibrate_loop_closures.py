@@ -74,6 +74,8 @@ HEADER = """\
 #
 # Format (version 1):
 #   version: 1
+#   keyframe_spacing: {distance_m, angle_deg}: the keyframes of the runs (the model samples per
+#         keyframe: a fit holds for its spacing; missing in files written before 2026-11-28)
 #   r_lc: m. Revisit radius for predict_revisits: distance between a predicted pose and
 #         an older keyframe's estimate at which a pose-matching revisit is accepted with
 #         50 % probability (logistic fit below; clamped to [0, searched radius]).
@@ -94,7 +96,8 @@ HEADER = """\
 #         attempts: [..]
 #         accepted: [..]
 #         rate: [..]
-#       accepted_error:            accepted closures against ground truth
+#       accepted_error:            accepted closures against ground truth (errors null when
+#                                  count is 0: the source then never accepts)
 #         count: int
 #         rms_translation_m: float   planar translation error (RMS over closures)
 #         rms_rotation_deg: float    yaw error (RMS)
@@ -106,8 +109,12 @@ HEADER = """\
 """
 
 
+# Config overrides of every run (--set), e.g. another keyframe spacing.
+OVERRIDES: list[str] = []
+
+
 def calibration_config(seed: int, scene_overrides: list[str]):
-    config = load_config([f"seed={seed}", "slam=icp", *scene_overrides])
+    config = load_config([f"seed={seed}", "slam=icp", *OVERRIDES, *scene_overrides])
     config.slam.loop_closure = dataclasses.replace(config.slam.loop_closure, **CALIBRATION_OVERRIDES)
     return config
 
@@ -243,6 +250,11 @@ def r_lc_from(fit: dict, searched: float) -> float:
 # ------------------------------------------------------------------ main
 
 
+def keyframe_spacing(config) -> dict:
+    """The spacing the fit holds for: the model front end samples per keyframe."""
+    return {"distance_m": config.slam.keyframe_distance, "angle_deg": config.slam.keyframe_angle_deg}
+
+
 def parse_seeds(text: str) -> list[int]:
     if "-" in text:
         lo, hi = text.split("-")
@@ -260,7 +272,11 @@ def main() -> None:
     parser.add_argument("--explore", default="", help="also explore these scenes, e.g. street,garage")
     parser.add_argument("--out", default=None, help=f"default {OUT}")
     parser.add_argument("--csv", default=None, help=f"default {CSV}")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
+                        help="config overrides of every run, e.g. slam.keyframe_angle_deg=45 (recorded in "
+                             "the file's provenance; write such a fit with --out, not over the default)")
     args = parser.parse_args()
+    OVERRIDES[:] = args.set
     seeds = [0, 1] if args.quick else parse_seeds(args.seeds)
     goals_limit = None
     if args.smoke:  # never overwrite the committed calibration
@@ -298,11 +314,13 @@ def main() -> None:
     result = {
         "version": 1,
         "r_lc": round(r_lc, 3),
+        "keyframe_spacing": keyframe_spacing(calibration_config(seeds[0], [])),
         "sources": sources,
         "provenance": {
             "command": "python scripts/calibrate_loop_closures.py " + " ".join(sys.argv[1:]),
             "date": datetime.date.today().isoformat(),
             "runs": infos,
+            "overrides": OVERRIDES,
             "calibration_overrides": CALIBRATION_OVERRIDES,
             "revisit_grouping": "query keyframes <= 2 apart, candidates <= 6 apart",
         },

@@ -29,10 +29,11 @@ import numpy as np
 import yaml
 
 from explore_rl.resources import conf_dir
+from explore_rl.slam.config import loop_closures_path
 
 CONF_CALIBRATION = conf_dir() / "calibration"  # the repository's conf/ or the wheel's copy
 SCAN_MATCHING_FILE = CONF_CALIBRATION / "scan_matching.yaml"
-LOOP_CLOSURES_FILE = CONF_CALIBRATION / "loop_closures.yaml"
+LOOP_CLOSURES_FILE = loop_closures_path("")
 
 WEAK_COUNTS = (0, 1, 2)
 MOTIONS = ("straight", "turned")
@@ -208,6 +209,8 @@ class LoopClosureCalibration:
     r_lc: float
     sources: dict[str, LoopSource]
     path: str = ""
+    # (metres, degrees) of the keyframes the fit was made with; None if the file does not say
+    keyframe_spacing: tuple[float, float] | None = None
 
 
 # ----------------------------------------------------------------------------- validation
@@ -420,18 +423,31 @@ def load_loop_closures(path: Path | str = LOOP_CLOSURES_FILE) -> LoopClosureCali
         if revisit_edges != edges:
             raise per_revisit.fail("bin_edges_m", "must equal per_attempt.bin_edges_m")
         error = s.child("accepted_error")
+        rate_per_attempt = per_attempt.numbers("rate", 0.0, 1.0, allow_null=True, length=len(edges) - 1)
+        rate_per_revisit = per_revisit.numbers("rate", 0.0, 1.0, allow_null=True, length=len(edges) - 1)
+        intercept, slope = logistic.optional_number("intercept"), logistic.optional_number("slope")
+        # A source that never closed a loop (at that keyframe spacing, say) has no error to
+        # sample: its errors may be null, and then it must never accept.
+        never_closed = error.integer("count", low=0) == 0
+        if never_closed and (any(rate_per_attempt + rate_per_revisit) or intercept is not None):
+            raise error.fail("count", "is 0 (no closure to fit errors on), yet an acceptance rate is above 0")
+        rms = error.optional_number if never_closed else error.number
         sources[name] = LoopSource(
             bin_edges=edges,
-            rate_per_attempt=per_attempt.numbers("rate", 0.0, 1.0, allow_null=True, length=len(edges) - 1),
-            rate_per_revisit=per_revisit.numbers("rate", 0.0, 1.0, allow_null=True, length=len(edges) - 1),
-            logistic_intercept=logistic.optional_number("intercept"),
-            logistic_slope=logistic.optional_number("slope"),
-            rms_translation=error.number("rms_translation_m", low=0.0),
-            rms_rotation_deg=error.number("rms_rotation_deg", low=0.0),
+            rate_per_attempt=rate_per_attempt,
+            rate_per_revisit=rate_per_revisit,
+            logistic_intercept=intercept,
+            logistic_slope=slope,
+            rms_translation=rms("rms_translation_m", low=0.0) or 0.0,
+            rms_rotation_deg=rms("rms_rotation_deg", low=0.0) or 0.0,
         )
     if not sources:
         raise top.fail("sources", "no loop-closure source")
-    return LoopClosureCalibration(r_lc=r_lc, sources=sources, path=str(path))
+    spacing = None
+    if top.get("keyframe_spacing") is not None:
+        fitted = top.child("keyframe_spacing")
+        spacing = (fitted.number("distance_m", low=0.0), fitted.number("angle_deg", low=0.0))
+    return LoopClosureCalibration(r_lc=r_lc, sources=sources, path=str(path), keyframe_spacing=spacing)
 
 
 @functools.lru_cache(maxsize=4)

@@ -8,7 +8,10 @@ Units are SI (metres, radians) unless the field name ends in ``_deg``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Optional
+
+from explore_rl.resources import conf_dir
 
 
 @dataclass
@@ -271,6 +274,19 @@ class LoopClosureConfig:
     # rolling submap: less odometry distortion, faster) against the candidate's submap.
     segment_source_keyframes: int = 3
 
+    # The `model` front end's acceptance rates and closure errors (slam.frontend=model only):
+    # a file of scripts/calibrate_loop_closures.py; empty = conf/calibration/loop_closures.yaml,
+    # a bare file name = that file in conf/calibration/. A fit holds for the keyframe spacing
+    # it was made at (recorded in the file): refit with --set slam.keyframe_angle_deg=... .
+    calibration_file: str = ""
+    # The model's stand-in for the gate's "worth it" test: the relative pose of a pair next to
+    # an accepted closure grows this uncertain per keyframe of index distance. Chosen so that
+    # the model's closure counts match icp's on the office tours (benchmarks/study_keyframes.py;
+    # at 0.5 m / 15 deg icp 22-28 per tour, mean 24.8: 0.009/0.08 gave mean 24, 0.008/0.07
+    # 19, 0.012/0.1 41). Wider keyframe spacing -> larger steps (slam=model_45deg: 0.012).
+    model_step_sigma_translation: float = 0.009
+    model_step_sigma_rotation_deg: float = 0.08
+
 
 @dataclass
 class SlamConfig:
@@ -287,3 +303,11 @@ class SlamConfig:
     pose_graph: PoseGraphConfig = field(default_factory=PoseGraphConfig)
     scan_matcher: ScanMatcherConfig = field(default_factory=ScanMatcherConfig)
     loop_closure: LoopClosureConfig = field(default_factory=LoopClosureConfig)
+
+
+def loop_closures_path(name: str) -> Path:
+    """``slam.loop_closure.calibration_file`` as a path: empty = the default
+    ``conf/calibration/loop_closures.yaml``, a bare file name = that file in
+    ``conf/calibration/``, anything else as given."""
+    path = Path(name or "loop_closures.yaml")
+    return conf_dir() / "calibration" / path if path.parent == Path(".") else path

@@ -88,7 +88,7 @@ from explore_rl.slam.calibration import (
     cached_scan_matching,
     draw_index,
 )
-from explore_rl.slam.config import LoopClosureConfig, SlamConfig
+from explore_rl.slam.config import LoopClosureConfig, SlamConfig, loop_closures_path
 from explore_rl.slam.frontend import ScanMatch
 from explore_rl.slam.loop_closure import closest_separated
 
@@ -283,22 +283,17 @@ class ModelLoopCloser:
     rates say so; measurements drawn from the fitted loop error (module docstring).
 
     ``config`` is the icp loop closer's :class:`LoopClosureConfig` (candidate rules, factor
-    floors, ``enabled``); ``step_sigma_*``: how fast the relative pose of a pair next to an
-    accepted closure becomes uncertain again, per keyframe of index distance (the
-    odometry + scan matching sigma of one keyframe) -- the stand-in for the icp gate's
-    joint marginal.
+    floors, ``enabled``), with the model's own ``model_step_sigma_*``: how fast the relative
+    pose of a pair next to an accepted closure becomes uncertain again, per keyframe of index
+    distance -- the stand-in for the icp gate's joint marginal.
     """
-
-    # Chosen so that the model's closure counts match icp's on the office tour (5 seeds,
-    # the same trajectories: icp 22-28 per tour, mean 24.8; 0.009/0.08 gave 16-36, mean
-    # 24; 0.008/0.07: mean 19; 0.012/0.1: mean 41).
-    step_sigma_translation = 0.009
-    step_sigma_rotation_deg = 0.08
 
     def __init__(self, config: LoopClosureConfig, calibration: LoopClosureCalibration | None = None,
                  rng: np.random.Generator | None = None):
         self.config = config
-        self.calibration = calibration if calibration is not None else cached_loop_closures()
+        if calibration is None:
+            calibration = cached_loop_closures(str(loop_closures_path(config.calibration_file)))
+        self.calibration = calibration
         self.rng = rng
         self.closures: dict[str, int] = {POSE_MATCHING: 0, SEGMENT_MATCHING: 0}
         self.accepted: list[tuple[int, int]] = []
@@ -382,11 +377,11 @@ class ModelLoopCloser:
         """Per keyframe in ``indices``: false if accepted closures already pin the relative
         pose of (i, j) below the icp gate's ``min_sigma_*`` (icp would not register the
         pair). Stand-in for the joint marginal: the relative sigma is the loop factor floor
-        plus ``step_sigma_*`` per keyframe along the shortest path from i to j that uses
+        plus ``model_step_sigma_*`` per keyframe along the shortest path from i to j that uses
         accepted closures as free links (:meth:`steps_via_closures`)."""
         cfg = self.config
-        limit = min((cfg.min_sigma_translation**2 - cfg.sigma_translation**2) / self.step_sigma_translation**2,
-                    (cfg.min_sigma_rotation_deg**2 - cfg.sigma_rotation_deg**2) / self.step_sigma_rotation_deg**2)
+        limit = min((cfg.min_sigma_translation**2 - cfg.sigma_translation**2) / cfg.model_step_sigma_translation**2,
+                    (cfg.min_sigma_rotation_deg**2 - cfg.sigma_rotation_deg**2) / cfg.model_step_sigma_rotation_deg**2)
         return self.steps_via_closures(indices, j) >= limit
 
     def steps_via_closures(self, indices: np.ndarray, j: int) -> np.ndarray:

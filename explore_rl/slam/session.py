@@ -21,6 +21,7 @@ are the same transform.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections import defaultdict
 from contextlib import contextmanager
@@ -47,6 +48,8 @@ from explore_rl.sensors.lidar import Lidar
 from explore_rl.slam.config import SlamConfig
 from explore_rl.slam.frontend import ScanMatch, ScanMatcher
 from explore_rl.slam.pose_graph import PoseGraph
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -139,8 +142,26 @@ def make_loop_closer(config: SlamConfig) -> LoopCloser:
     if config.frontend == "model" and config.loop_closure.enabled:
         from explore_rl.slam.frontend_model import ModelLoopCloser
 
-        return ModelLoopCloser(config.loop_closure)
+        closer = ModelLoopCloser(config.loop_closure)
+        warn_if_fitted_at_another_spacing(closer.calibration, config)
+        return closer
     return NoLoopClosures()
+
+
+_SPACING_WARNED: set = set()
+
+
+def warn_if_fitted_at_another_spacing(calibration, config: SlamConfig) -> None:
+    """Log once per file and spacing when the model's loop-closure fit was made with other
+    keyframes: its rates are per attempt, one per keyframe, so they do not carry over."""
+    fitted, spacing = calibration.keyframe_spacing, (config.keyframe_distance, config.keyframe_angle_deg)
+    key = (calibration.path, spacing)
+    if fitted is None or np.allclose(fitted, spacing) or key in _SPACING_WARNED:
+        return
+    _SPACING_WARNED.add(key)
+    log.warning("slam=model at %g m / %g deg keyframes, but %s was fitted at %g m / %g deg: loop closures will not "
+                "match icp's (refit: scripts/calibrate_loop_closures.py --set slam.keyframe_angle_deg=...; "
+                "at 45 deg use slam=model_45deg)", *spacing, calibration.path, *fitted)
 
 
 def map_error(world_from_sensor_est: np.ndarray, world_from_sensor_true: np.ndarray,

@@ -41,16 +41,15 @@ SCRIPTS = [
     ("benchmarks/study_inflation.py", [], ["baseline", "per_variant", "table"]),
     ("benchmarks/study_ordering.py", ["--out", "{tmp}/ordering"], ["table", "checks", "plots"]),
     ("benchmarks/sweep_alpha.py", [], ["nearest_travel_m", "nearest_map_error_m", "rows", "chosen_alpha"]),
-    ("benchmarks/bench_drive.py", ["--profile", "{tmp}/drive_profile.txt"], ["drive_ms_per_decision", "drive_ms_per_decision_reference", "speedup",
-                                       "max_abs_logodds_diff", "same_voxels", "same_explored", "profile"]),
-    ("benchmarks/study_keyframes.py", [], ["table"]),
+    ("benchmarks/bench_drive.py", ["--profile", "{tmp}/drive_profile.txt", "--fast-set", "slam=model_45deg"],
+     ["drive_ms_per_decision", "drive_ms_per_decision_reference", "speedup", "max_abs_logodds_diff", "same_voxels",
+      "same_explored", "profile", "fast_overrides"]),
+    ("benchmarks/study_keyframes.py", ["--spacings", "1:45", "--model-set",
+                                       "slam.loop_closure.model_step_sigma_translation=0.012"], ["table", "model_set"]),
     ("benchmarks/study_zero_shot.py", [str(ROOT / "benchmarks/results/zero_shot_v3_10"), "--out", "{tmp}/targets"],
      ["reports"]),
     ("benchmarks/collect_decisions.py", ["--out", "{tmp}/decisions", "--set", "train.dataset_capacity=16"],
      ["decisions", "layouts", "tasks_done", "wall_s", "decisions_per_s", "decisions_per_s_per_worker"]),
-    ("scripts/calibrate_loop_closures.py",
-     ["--out", "{tmp}/loop_closures.yaml", "--csv", "{tmp}/attempts.csv"],
-     ["r_lc", "attempts", "revisits_pose_matching", "accepted_revisits_pose_matching", "false_closures"]),
     ("scripts/calibrate_scan_matching.py", ["--out", "{tmp}/scan_matching.yaml"],
      ["matches", "degenerate_fraction", "mahalanobis_d2_per_dof", "fraction_above_chi2_99"]),
 ]
@@ -65,7 +64,6 @@ OUTPUTS = {
     "benchmarks/study_ordering.py": ["ordering/ordering_table.md", "ordering/ordering_runs.jsonl",
                                      "ordering/ordering_street.png"],
     "benchmarks/study_zero_shot.py": ["targets/zero_shot_v3_10/targets.md", "targets/zero_shot_v3_10/targets.json"],
-    "scripts/calibrate_loop_closures.py": ["loop_closures.yaml", "attempts.csv"],
     "scripts/calibrate_scan_matching.py": ["scan_matching.yaml"],
 }
 
@@ -90,3 +88,18 @@ def test_every_script_has_a_smoke_test() -> None:
     tests = " ".join(p.read_text() for p in here.glob("test_*.py"))
     missing = sorted(name for name in scripts if not re.search(rf"\b{name}\b", tests))
     assert not missing, f"scripts without a smoke test in tests/benchmarks/: {missing}"
+
+
+def test_calibrate_loop_closures_writes_a_fit_the_model_loads_with_its_spacing(tmp_path: Path) -> None:
+    """The loop-closure script at another keyframe spacing (``--set``): its file loads (a source
+    that closed nothing included) and says which spacing it holds for."""
+    from explore_rl.slam.calibration import load_loop_closures
+
+    out = tmp_path / "loop_closures.yaml"
+    result = run_script("scripts/calibrate_loop_closures.py", "--smoke", "--set", "slam.keyframe_angle_deg=45",
+                        "--out", str(out), "--csv", str(tmp_path / "attempts.csv"), cwd=tmp_path)
+    for key in ("r_lc", "attempts", "revisits_pose_matching", "accepted_revisits_pose_matching", "false_closures"):
+        assert key in result, f"JSON last line lacks {key}"
+    calibration = load_loop_closures(out)
+    assert calibration.keyframe_spacing == (0.5, 45.0) and calibration.r_lc == result["r_lc"]
+    assert (tmp_path / "attempts.csv").is_file()

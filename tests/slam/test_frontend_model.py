@@ -244,6 +244,69 @@ def test_missing_or_broken_calibration_files(tmp_path):
         load_loop_closures(tmp_path / "loops.yaml")
 
 
+def _never_closing(document: dict, source: str) -> dict:
+    """``document`` with ``source`` as a refit gives a source that closed nothing: zero
+    rates, no logistic, null errors."""
+    fit = document["sources"][source]
+    for table in ("per_attempt", "per_revisit"):
+        fit[table]["rate"] = [None if r is None else 0.0 for r in fit[table]["rate"]]
+    fit["acceptance_logistic"] = {"intercept": None, "slope": None}
+    fit["accepted_error"] = {**fit["accepted_error"], "count": 0, "rms_translation_m": None, "rms_rotation_deg": None}
+    return document
+
+
+def test_a_source_that_never_closed_loads_and_never_accepts_but_not_with_a_rate(tmp_path):
+    from explore_rl.slam.calibration import LOOP_CLOSURES_FILE
+
+    document = _never_closing(yaml.safe_load(LOOP_CLOSURES_FILE.read_text()), "segment_matching")
+    path = tmp_path / "loops.yaml"
+    path.write_text(yaml.safe_dump(document))
+    source = load_loop_closures(path).sources["segment_matching"]
+    assert source.rms_translation == 0.0 and all(source.rate(d, per) == 0.0 for d in np.linspace(0, 9, 37)
+                                                  for per in ("attempt", "revisit"))
+    document["sources"]["segment_matching"]["per_attempt"]["rate"][3] = 0.5
+    path.write_text(yaml.safe_dump(document))
+    with pytest.raises(CalibrationError, match="segment_matching.accepted_error.count"):
+        load_loop_closures(path)
+
+
+def test_the_model_reads_the_calibration_file_the_config_names(tmp_path):
+    from explore_rl.config import load_config
+    from explore_rl.slam.calibration import LOOP_CLOSURES_FILE
+    from explore_rl.slam.config import LoopClosureConfig, loop_closures_path
+    from explore_rl.slam.frontend_model import ModelLoopCloser
+
+    document = _never_closing(yaml.safe_load(LOOP_CLOSURES_FILE.read_text()), "pose_matching")
+    path = tmp_path / "refit.yaml"
+    path.write_text(yaml.safe_dump(document))
+    closer = ModelLoopCloser(LoopClosureConfig(calibration_file=str(path)))
+    assert closer.calibration.path == str(path) and closer.calibration.sources["pose_matching"].rate(0.1) == 0.0
+    assert ModelLoopCloser(LoopClosureConfig()).calibration.path == str(LOOP_CLOSURES_FILE)
+    assert loop_closures_path("loop_closures.yaml") == LOOP_CLOSURES_FILE  # a bare name: conf/calibration/
+    assert load_config(["slam=model", f"slam.loop_closure.calibration_file={path}"]).slam.loop_closure.calibration_file
+    with pytest.raises(ValueError, match="slam.loop_closure.calibration_file='nope.yaml': no such file"):
+        load_config(["slam=model", "slam.loop_closure.calibration_file=nope.yaml"])
+
+
+def test_a_fit_made_at_another_keyframe_spacing_is_logged_and_the_45_deg_preset_has_its_own(caplog):
+    from explore_rl.config import load_config
+    from explore_rl.slam.session import make_loop_closer
+
+    def warned(overrides: list[str]) -> bool:
+        caplog.clear()
+        make_loop_closer(load_config(["slam=model", *overrides]).slam)
+        return any("was fitted at 0.5 m / 15 deg" in r.getMessage() for r in caplog.records)
+
+    with caplog.at_level("WARNING", logger="explore_rl.slam.session"):
+        assert not warned([])
+        assert warned(["slam.keyframe_angle_deg=45"])
+        assert not warned(["slam.keyframe_angle_deg=45"])  # once per file and spacing
+        assert not warned(["slam=model_45deg"])
+    preset = make_loop_closer(load_config(["slam=model_45deg"]).slam)
+    assert preset.calibration.keyframe_spacing == (0.5, 45.0)
+    assert preset.config.model_step_sigma_translation > load_config(["slam=model"]).slam.loop_closure.model_step_sigma_translation
+
+
 # ---------------------------------------------------------------- model loop closures
 
 
