@@ -22,7 +22,9 @@ Office, ``slam=model``, one process, the same seed, starts and random valid acti
 ``PROFILE_DECISIONS`` decisions) with each backend: the share of each part and the top
 functions inside reward and drive, written to ``benchmarks/results/profile_env_<backend>.txt``.
 
-    python benchmarks/bench_env.py [--quick | --smoke] [--profile]
+``--set KEY=VALUE ...``: config overrides of every env (e.g. ``slam=model_45deg``).
+
+    python benchmarks/bench_env.py [--quick | --smoke] [--profile] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -65,6 +67,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--backend", choices=BACKENDS, action="append",
                         help="--profile only these backends (repeatable; default both)")
     parser.add_argument("--tag", default="", help="--profile: suffix of the log names (e.g. _before)")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
+                        help="config overrides of every env and run (e.g. slam=model_45deg)")
     return parser.parse_args()
 
 
@@ -177,7 +181,7 @@ def speedup_bound_em_free(fast: dict, reference: dict) -> float:
 def benchmark(args: argparse.Namespace) -> None:
     episodes, max_decisions = (1, 2) if args.smoke else (1, 12) if args.quick else (3, 300)
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
-                          f"explore.max_decisions={max_decisions}"])
+                          f"explore.max_decisions={max_decisions}", *args.set])
     runs = run_lockstep({backend: with_backend(config, backend) for backend in BACKENDS}, episodes, max_decisions)
     fast, reference = runs["fast"], runs["reference"]
     env_em = run_env(config, 1, max_decisions, follow_em=True)
@@ -188,7 +192,7 @@ def benchmark(args: argparse.Namespace) -> None:
         print(f"per decision ({name}):", {k: v for k, v in r.items() if k.startswith("ms_")})
     same = agreement(fast, reference)
     print("agreement:", same)
-    emit({"benchmark": "env", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
+    emit({"benchmark": "env", "quick": args.quick, "smoke": args.smoke, "overrides": args.set, "machine": machine(),
           "decisions_per_s": fast["decisions_per_s"],
           "decisions_per_s_reference": reference["decisions_per_s"],
           "speedup": round(fast["decisions_per_s"] / reference["decisions_per_s"], 3),
@@ -251,8 +255,8 @@ def profile(args: argparse.Namespace) -> None:
     """Shares of each part and the top functions inside reward and drive, per backend."""
     minimum = 2 if args.smoke else PROFILE_DECISIONS
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
-                          "explore.max_decisions=300"])
-    result = {"benchmark": "env_profile", "smoke": args.smoke, "machine": machine()}
+                          "explore.max_decisions=300", *args.set])
+    result = {"benchmark": "env_profile", "smoke": args.smoke, "overrides": args.set, "machine": machine()}
     for backend in args.backend or BACKENDS:
         with PartProfiler() as profiler:
             run = run_env(with_backend(config, backend), 1, 2 if args.smoke else 300, follow_em=False,

@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# plan.md step 4: EM and the shipped actor with slam=icp_45deg on the validation buildings 1010-1039 (one trial
+# each, revisit_bias/val.sh's config otherwise), in two streams (even and odd seeds), resumable:
+# /work/runs/kf45_val/building_SEED; each building's start and end time in the stream's log.
+set -e
+OUT=/work/runs/kf45_val
+EVAL="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
+COMMON="scene=building slam=icp_45deg graph.max_nodes=1024 evaluate.trials=1 explore.travel_budget=250 \
+  evaluate.progress_bar=false evaluate.workers=1 evaluate.policies=[learned,em]"
+mkdir -p $OUT
+stream() {  # stream START: every other seed from START
+  for SEED in $(seq $1 2 1039); do
+    [ -e $OUT/building_$SEED/trials.jsonl ] && continue  # finished before a restart
+    echo "building $SEED start $(date +%s)"
+    $EVAL $COMMON scene.seed=$SEED out=$OUT/building_$SEED
+    echo "building $SEED end $(date +%s)"
+  done
+}
+stream 1010 > ${OUT}_even.log 2>&1 &
+stream 1011 > ${OUT}_odd.log 2>&1
+wait
