@@ -2,10 +2,12 @@
 # plan.md step 4: EM and the shipped actor with slam=icp_45deg on the validation buildings 1010-1039 (one trial
 # each, revisit_bias/val.sh's config otherwise), in two streams (even and odd seeds), resumable:
 # /work/runs/kf45_val/building_SEED; each building's start and end time in the stream's log.
+# SLAM=icp OUT=/work/runs/kf15_val: the same at 15 deg on this machine (addendum: wall time per building).
 set -e
-OUT=/work/runs/kf45_val
+SLAM=${SLAM:-icp_45deg}
+OUT=${OUT:-/work/runs/kf45_val}
 EVAL="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
-COMMON="scene=building slam=icp_45deg graph.max_nodes=1024 evaluate.trials=1 explore.travel_budget=250 \
+COMMON="scene=building slam=$SLAM graph.max_nodes=1024 evaluate.trials=1 explore.travel_budget=250 \
   evaluate.progress_bar=false evaluate.workers=1 evaluate.policies=[learned,em]"
 mkdir -p $OUT
 stream() {  # stream START: every other seed from START
