@@ -17,3 +17,15 @@ $PY $STUDY $V --policy em --reference $PAIR --reference-policy em --pool em_45_v
   --out $HERE/targets_em_45_vs_15 > $HERE/em_45_vs_15.log
 $PY $STUDY $V --policy learned --reference $PAIR --reference-policy learned --pool learned_45_vs_15 \
   --out $HERE/targets_learned_45_vs_15 > $HERE/learned_45_vs_15.log
+# addendum: the 15 deg pair re-run on this machine (run.sh with SLAM=icp OUT=/work/runs/kf15_val), kept in
+# runs/val_15deg; the same three comparisons against it, and it against the committed 15 deg pair
+V15=$HERE/runs/val_15deg
+keep /work/runs/kf15_val $V15
+[ -d $V15 ] || exit 0
+$PY $STUDY $V15 --pool val_15deg --out $HERE/targets_val_15deg > $HERE/study_val_15deg.log
+for policy in em learned; do
+  $PY $STUDY $V --policy $policy --reference $V15 --reference-policy $policy --pool ${policy}_45_vs_15_here \
+    --out $HERE/targets_${policy}_45_vs_15_here > $HERE/${policy}_45_vs_15_here.log
+  $PY $STUDY $V15 --policy $policy --reference $PAIR --reference-policy $policy --pool ${policy}_15_rerun \
+    --out $HERE/targets_${policy}_15_rerun > $HERE/${policy}_15_rerun.log
+done
