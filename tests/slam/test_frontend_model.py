@@ -288,9 +288,12 @@ def test_the_model_reads_the_calibration_file_the_config_names(tmp_path):
         load_config(["slam=model", "slam.loop_closure.calibration_file=nope.yaml"])
 
 
-def test_a_fit_made_at_another_keyframe_spacing_is_logged_and_the_45_deg_preset_has_its_own(caplog):
+def test_a_fit_made_at_another_keyframe_spacing_is_logged_and_the_45_deg_preset_has_its_own(caplog, monkeypatch):
     from explore_rl.config import load_config
+    from explore_rl.slam import session
     from explore_rl.slam.session import make_loop_closer
+
+    monkeypatch.setattr(session, "_SPACING_WARNED", set())  # whatever ran before in this process
 
     def warned(overrides: list[str]) -> bool:
         caplog.clear()
