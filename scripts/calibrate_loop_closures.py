@@ -276,6 +276,8 @@ def main() -> None:
                         help="config overrides of every run, e.g. slam.keyframe_angle_deg=45 (recorded in "
                              "the file's provenance; write such a fit with --out, not over the default)")
     args = parser.parse_args()
+    if args.set and args.out is None and not args.smoke:
+        parser.error(f"--set fits another config: give --out (the default {OUT} is the fit slam=model reads)")
     OVERRIDES[:] = args.set
     seeds = [0, 1] if args.quick else parse_seeds(args.seeds)
     goals_limit = None

@@ -26,7 +26,7 @@ import time
 from collections import defaultdict
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Iterator, Protocol
+from typing import TYPE_CHECKING, Iterator, Protocol
 
 import numpy as np
 from kiss_icp.voxelization import voxel_down_sample
@@ -48,6 +48,9 @@ from explore_rl.sensors.lidar import Lidar
 from explore_rl.slam.config import SlamConfig
 from explore_rl.slam.frontend import ScanMatch, ScanMatcher
 from explore_rl.slam.pose_graph import PoseGraph
+
+if TYPE_CHECKING:
+    from explore_rl.slam.calibration import LoopClosureCalibration
 
 log = logging.getLogger(__name__)
 
@@ -151,7 +154,7 @@ def make_loop_closer(config: SlamConfig) -> LoopCloser:
 _SPACING_WARNED: set = set()
 
 
-def warn_if_fitted_at_another_spacing(calibration, config: SlamConfig) -> None:
+def warn_if_fitted_at_another_spacing(calibration: LoopClosureCalibration, config: SlamConfig) -> None:
     """Log once per file and spacing when the model's loop-closure fit was made with other
     keyframes: its rates are per attempt, one per keyframe, so they do not carry over."""
     fitted, spacing = calibration.keyframe_spacing, (config.keyframe_distance, config.keyframe_angle_deg)

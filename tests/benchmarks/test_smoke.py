@@ -103,3 +103,13 @@ def test_calibrate_loop_closures_writes_a_fit_the_model_loads_with_its_spacing(t
     calibration = load_loop_closures(out)
     assert calibration.keyframe_spacing == (0.5, 45.0) and calibration.r_lc == result["r_lc"]
     assert (tmp_path / "attempts.csv").is_file()
+
+
+def test_calibrate_loop_closures_refuses_another_config_without_out(monkeypatch, capsys) -> None:
+    """A fit for another config (--set) must not overwrite the default file the model reads."""
+    from tests.benchmarks.smoke import load_script
+
+    monkeypatch.setattr("sys.argv", ["calibrate_loop_closures.py", "--set", "slam.keyframe_angle_deg=45"])
+    with pytest.raises(SystemExit) as exit_:
+        load_script("scripts/calibrate_loop_closures.py").main()
+    assert exit_.value.code == 2 and "--set fits another config: give --out" in capsys.readouterr().err
