@@ -3,12 +3,14 @@
 # each, revisit_bias/val.sh's config otherwise), in two streams (even and odd seeds), resumable:
 # /work/runs/kf45_val/building_SEED; each building's start and end time in the stream's log.
 # SLAM=icp OUT=/work/runs/kf15_val: the same at 15 deg on this machine (addendum: wall time per building).
+# POLICIES=[em] EXTRA="key=value ...": other policies, more overrides (addendum: loop-closure budgets).
 set -e
 SLAM=${SLAM:-icp_45deg}
 OUT=${OUT:-/work/runs/kf45_val}
+POLICIES=${POLICIES:-[learned,em]}
 EVAL="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
 COMMON="scene=building slam=$SLAM graph.max_nodes=1024 evaluate.trials=1 explore.travel_budget=250 \
-  evaluate.progress_bar=false evaluate.workers=1 evaluate.policies=[learned,em]"
+  evaluate.progress_bar=false evaluate.workers=1 evaluate.policies=$POLICIES $EXTRA"
 mkdir -p $OUT
 stream() {  # stream START: every other seed from START
   for SEED in $(seq $1 2 1039); do

@@ -29,3 +29,11 @@ for policy in em learned; do
   $PY $STUDY $V15 --policy $policy --reference $PAIR --reference-policy $policy --pool ${policy}_15_rerun \
     --out $HERE/targets_${policy}_15_rerun > $HERE/${policy}_15_rerun.log
 done
+# addendum (loop-closure budgets): EM at 45 deg with doubled per-keyframe budgets, against EM at 15 and 45 deg
+VB=$HERE/runs/val_45deg_budget
+keep /work/runs/kf45_budget_val $VB
+[ -d $VB ] || exit 0
+for ref in 15deg 45deg; do
+  $PY $STUDY $VB --policy em --reference $HERE/runs/val_$ref --reference-policy em --pool em_budget_vs_$ref \
+    --out $HERE/targets_em_budget_vs_$ref > $HERE/em_budget_vs_$ref.log
+done
