@@ -12,11 +12,12 @@ the default spacing; and how far the model's keyframes per metre (its graph size
 from icp's at the default spacing (the learned policy sees one pose node per keyframe).
 
     python benchmarks/study_keyframes.py [--quick | --smoke] [--seeds 0-7] [--spacings 0.5:45 ...]
-        [--model-set KEY=VALUE ...]
+        [--set KEY=VALUE ...] [--model-set KEY=VALUE ...]
 
-``--model-set``: config overrides of the model's replays at every spacing but the default
-one, e.g. the settings of ``slam=model_45deg`` (a loop-closure fit made at that spacing and
-its "worth it" stand-in) to check them against icp at the same spacing.
+``--set``: config overrides of both front ends' replays at every spacing but the default one
+(e.g. the loop-closure budgets of ``slam=icp_45deg``); ``--model-set``: of the model's only
+(e.g. the rest of ``slam=model_45deg``: a loop-closure fit made at that spacing and its
+"worth it" stand-in), to check them against icp at the same spacing.
 """
 
 from __future__ import annotations
@@ -109,6 +110,8 @@ def seed_range(text: str) -> list[int]:
 def add_arguments(parser) -> None:
     parser.add_argument("--spacings", nargs="+", type=spacing_arg, metavar="METRES:DEG",
                         help="spacings besides the default 0.5:15 (default: the study's grid)")
+    parser.add_argument("--set", nargs="+", default=[], metavar="KEY=VALUE",
+                        help="config overrides of both front ends' replays at the non-default spacings")
     parser.add_argument("--model-set", nargs="+", default=[], metavar="KEY=VALUE",
                         help="config overrides of the model's replays at the non-default spacings")
     parser.add_argument("--seeds", type=seed_range, help="tour seeds, e.g. 0-7 (default 0-4)")
@@ -131,7 +134,7 @@ def main() -> None:
         steps = in_fresh_process(drive_icp, seed, goals_limit)["steps"]
         for spacing in spacings:
             for frontend, n in (("icp", 1), ("model", draws)):
-                overrides = tuple(args.model_set) if frontend == "model" and spacing != DEFAULT else ()
+                overrides = () if spacing == DEFAULT else (*args.set, *(args.model_set if frontend == "model" else ()))
                 rows = [in_fresh_process(replay, seed, steps, frontend, spacing, d, overrides) for d in range(n)]
                 runs.setdefault((frontend, spacing), {})[seed] = rows
                 r = rows[0]
@@ -142,7 +145,7 @@ def main() -> None:
     for row in table:
         print({k: v for k, v in row.items() if k != "within_icp_default_spread"}, flush=True)
     emit({"study": "keyframes", "quick": args.quick, "smoke": args.smoke, "seeds": seeds, "draws": draws,
-          "model_set": args.model_set,
+          "set": args.set, "model_set": args.model_set,
           "machine": machine(), "table": table})
 
 

@@ -37,3 +37,12 @@ for ref in 15deg 45deg; do
   $PY $STUDY $VB --policy em --reference $HERE/runs/val_$ref --reference-policy em --pool em_budget_vs_$ref \
     --out $HERE/targets_em_budget_vs_$ref > $HERE/em_budget_vs_$ref.log
 done
+# addendum (the budgets in the preset): the shipped actor at the new slam=icp_45deg against EM's budget run (the
+# same config) and against itself at 15 deg
+VL=$HERE/runs/val_45deg_budget_learned
+keep /work/runs/kf45_budget_val_learned $VL
+[ -d $VL ] || exit 0
+$PY $STUDY $VL --reference $VB --pool learned_vs_em_budget --out $HERE/targets_learned_vs_em_budget \
+  > $HERE/learned_vs_em_budget.log
+$PY $STUDY $VL --policy learned --reference $HERE/runs/val_15deg --reference-policy learned \
+  --pool learned_budget_vs_15deg --out $HERE/targets_learned_budget_vs_15deg > $HERE/learned_budget_vs_15deg.log
