@@ -25,6 +25,18 @@ def parse_args(description: str, quick_help: str = "a run that finishes in under
     return parser.parse_args()
 
 
+def seed_list(text: str) -> list[int]:
+    """Seeds from the command line: ``0-7`` -> 0..7, ``0,3,5-6`` -> [0, 3, 5, 6]."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        if "-" in part:
+            first, last = part.split("-")
+            seeds.extend(range(int(first), int(last) + 1))
+        elif part:
+            seeds.append(int(part))
+    return seeds
+
+
 def mean_ci95(values: list[float]) -> tuple[float, list[float] | None]:
     """The mean of ``values`` and its 95 % Student-t interval (None for fewer than 2 values)."""
     mean = float(np.mean(values))

@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_frontends import drive_icp, in_fresh_process, new_session, scores  # noqa: E402
-from common import emit, machine, parse_args  # noqa: E402
+from common import emit, machine, parse_args, seed_list  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.scene.build import make_scene  # noqa: E402
@@ -99,14 +99,6 @@ def spacing_arg(text: str) -> tuple[float, float]:
     return float(distance), float(angle)
 
 
-def seed_range(text: str) -> list[int]:
-    """``0-7`` -> [0, ..., 7]; ``0,3`` -> [0, 3]."""
-    if "-" in text:
-        first, last = text.split("-")
-        return list(range(int(first), int(last) + 1))
-    return [int(seed) for seed in text.split(",")]
-
-
 def add_arguments(parser) -> None:
     parser.add_argument("--spacings", nargs="+", type=spacing_arg, metavar="METRES:DEG",
                         help="spacings besides the default 0.5:15 (default: the study's grid)")
@@ -114,7 +106,7 @@ def add_arguments(parser) -> None:
                         help="config overrides of both front ends' replays at the non-default spacings")
     parser.add_argument("--model-set", nargs="+", default=[], metavar="KEY=VALUE",
                         help="config overrides of the model's replays at the non-default spacings")
-    parser.add_argument("--seeds", type=seed_range, help="tour seeds, e.g. 0-7 (default 0-4)")
+    parser.add_argument("--seeds", type=seed_list, help="tour seeds, e.g. 0-7 (default 0-4)")
 
 
 def main() -> None:

@@ -37,6 +37,7 @@ import json
 import sys
 import tempfile
 import time
+from typing import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.common import seed_list  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.slam.loop_closure import (  # noqa: E402
     POSE_MATCHING, SOURCES, LoopClosureAttempt, write_attempts_csv)
@@ -109,20 +111,18 @@ HEADER = """\
 """
 
 
-# Config overrides of every run (--set), e.g. another keyframe spacing.
-OVERRIDES: list[str] = []
-
-
-def calibration_config(seed: int, scene_overrides: list[str]):
-    config = load_config([f"seed={seed}", "slam=icp", *OVERRIDES, *scene_overrides])
+def calibration_config(seed: int, overrides: Sequence[str]):
+    """The icp config of one run in the calibration setting; ``overrides``: --set and the run's scene."""
+    config = load_config([f"seed={seed}", "slam=icp", *overrides])
     config.slam.loop_closure = dataclasses.replace(config.slam.loop_closure, **CALIBRATION_OVERRIDES)
     return config
 
 
-def run_tour_attempts(seed: int, goals_limit: int | None = None) -> tuple[list[LoopClosureAttempt], dict]:
+def run_tour_attempts(seed: int, goals_limit: int | None = None,
+                      overrides: Sequence[str] = ()) -> tuple[list[LoopClosureAttempt], dict]:
     from explore_rl.tour import run_tour
 
-    config = calibration_config(seed, [])
+    config = calibration_config(seed, overrides)
     start = time.perf_counter()
     run = run_tour(config, goals_limit)
     session = run.session
@@ -131,10 +131,10 @@ def run_tour_attempts(seed: int, goals_limit: int | None = None) -> tuple[list[L
     return list(session.loop_closer.attempts), info
 
 
-def run_explore_attempts(seed: int, scene: str) -> tuple[list[LoopClosureAttempt], dict]:
+def run_explore_attempts(seed: int, scene: str, overrides: Sequence[str] = ()) -> tuple[list[LoopClosureAttempt], dict]:
     from explore_rl.runner import Explorer
 
-    config = calibration_config(seed, [f"scene={scene}", "policy=nearest", "explore.progress_bar=false"])
+    config = calibration_config(seed, [*overrides, f"scene={scene}", "policy=nearest", "explore.progress_bar=false"])
     start = time.perf_counter()
     explorer = Explorer(config)
     result = explorer.run()
@@ -255,13 +255,6 @@ def keyframe_spacing(config) -> dict:
     return {"distance_m": config.slam.keyframe_distance, "angle_deg": config.slam.keyframe_angle_deg}
 
 
-def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(s) for s in text.split(",")]
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-7", help="e.g. 0-7 or 0,2,5")
@@ -278,8 +271,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.set and args.out is None and not args.smoke:
         parser.error(f"--set fits another config: give --out (the default {OUT} is the fit slam=model reads)")
-    OVERRIDES[:] = args.set
-    seeds = [0, 1] if args.quick else parse_seeds(args.seeds)
+    seeds = [0, 1] if args.quick else seed_list(args.seeds)
     goals_limit = None
     if args.smoke:  # never overwrite the committed calibration
         seeds, goals_limit, args.explore = [0], 4, ""
@@ -291,14 +283,14 @@ def main() -> None:
 
     runs, infos = [], []
     for seed in seeds:
-        attempts, info = run_tour_attempts(seed, goals_limit)
+        attempts, info = run_tour_attempts(seed, goals_limit, args.set)
         runs.append(attempts)
         infos.append(info)
         print(f"tour seed {seed}: {info['status']}, {info['keyframes']} keyframes, "
               f"{sum(a.registered for a in attempts)} attempts, {sum(a.accepted for a in attempts)} "
               f"accepted ({info['seconds']} s)", flush=True)
         for scene in filter(None, args.explore.split(",")):
-            attempts, info = run_explore_attempts(seed, scene)
+            attempts, info = run_explore_attempts(seed, scene, args.set)
             runs.append(attempts)
             infos.append(info)
             print(f"explore {scene} seed {seed}: {info['status']}, {info['keyframes']} keyframes, "
@@ -316,13 +308,13 @@ def main() -> None:
     result = {
         "version": 1,
         "r_lc": round(r_lc, 3),
-        "keyframe_spacing": keyframe_spacing(calibration_config(seeds[0], [])),
+        "keyframe_spacing": keyframe_spacing(calibration_config(seeds[0], args.set)),
         "sources": sources,
         "provenance": {
             "command": "python scripts/calibrate_loop_closures.py " + " ".join(sys.argv[1:]),
             "date": datetime.date.today().isoformat(),
             "runs": infos,
-            "overrides": OVERRIDES,
+            "overrides": args.set,
             "calibration_overrides": CALIBRATION_OVERRIDES,
             "revisit_grouping": "query keyframes <= 2 apart, candidates <= 6 apart",
         },

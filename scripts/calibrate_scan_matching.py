@@ -48,6 +48,7 @@ from scipy.stats import chi2
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.common import seed_list  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.geometry import matrix_to_se2, se2_between  # noqa: E402
 from explore_rl.slam import session as session_module  # noqa: E402
@@ -404,17 +405,6 @@ class _NoAliases(yaml.SafeDumper):
         return True
 
 
-def parse_seeds(text: str) -> list[int]:
-    seeds: list[int] = []
-    for part in text.split(","):
-        if "-" in part:
-            lo, hi = part.split("-")
-            seeds.extend(range(int(lo), int(hi) + 1))
-        elif part:
-            seeds.append(int(part))
-    return seeds
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tour-seeds", default="0-5")
@@ -428,8 +418,8 @@ def main() -> None:
                              "writes to a temporary directory unless --out is given")
     parser.add_argument("overrides", nargs="*", help="Hydra overrides for the icp runs")
     args = parser.parse_args()
-    tour_seeds = [0, 1] if args.quick else parse_seeds(args.tour_seeds)
-    explore_seeds = [] if args.quick else parse_seeds(args.explore_seeds)
+    tour_seeds = [0, 1] if args.quick else seed_list(args.tour_seeds)
+    explore_seeds = [] if args.quick else seed_list(args.explore_seeds)
     scenes = [s for s in args.scenes.split(",") if s]
     goals_limit = None
     if args.smoke:  # never overwrite the committed calibration

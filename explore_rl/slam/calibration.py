@@ -28,10 +28,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from explore_rl.resources import conf_dir
-from explore_rl.slam.config import loop_closures_path
+from explore_rl.slam.config import calibration_dir, loop_closures_path
 
-CONF_CALIBRATION = conf_dir() / "calibration"  # the repository's conf/ or the wheel's copy
+CONF_CALIBRATION = calibration_dir()  # the repository's conf/ or the wheel's copy
 SCAN_MATCHING_FILE = CONF_CALIBRATION / "scan_matching.yaml"
 LOOP_CLOSURES_FILE = loop_closures_path("")
 

@@ -305,9 +305,14 @@ class SlamConfig:
     loop_closure: LoopClosureConfig = field(default_factory=LoopClosureConfig)
 
 
+def calibration_dir() -> Path:
+    """The front ends' calibration files (``conf/calibration/``: the repository's or the wheel's)."""
+    return conf_dir() / "calibration"
+
+
 def loop_closures_path(name: str) -> Path:
     """``slam.loop_closure.calibration_file`` as a path: empty = the default
     ``conf/calibration/loop_closures.yaml``, a bare file name = that file in
     ``conf/calibration/``, anything else as given."""
     path = Path(name or "loop_closures.yaml")
-    return conf_dir() / "calibration" / path if path.parent == Path(".") else path
+    return calibration_dir() / path if path.parent == Path(".") else path

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from common import cluster_bootstrap, layout_clusters, mean_ci95  # noqa: E402
+from common import cluster_bootstrap, layout_clusters, mean_ci95, seed_list  # noqa: E402
 
 
 def test_mean_ci95_matches_the_textbook_t_interval() -> None:
@@ -38,3 +38,8 @@ def test_the_bootstrap_resamples_whole_layouts_not_rows() -> None:
     low, high = cluster_bootstrap(lambda rows: float(values[rows].mean()), groups, seed=1)
     assert low == 0.0 and high == 1.0
     assert cluster_bootstrap(lambda rows: float(values[rows].mean()), groups, seed=1) == [low, high]
+
+
+def test_seed_list_reads_ranges_and_lists():
+    assert seed_list("0-7") == list(range(8))
+    assert seed_list("0,3,5-6") == [0, 3, 5, 6] and seed_list("4") == [4]
