@@ -4,22 +4,25 @@
 # /work/runs/kf45_val/building_SEED; each building's start and end time in the stream's log.
 # SLAM=icp OUT=/work/runs/kf15_val: the same at 15 deg on this machine (addendum: wall time per building).
 # POLICIES=[em] EXTRA="key=value ...": other policies, more overrides (addendum: loop-closure budgets).
+# FIRST=1040 LAST=1099: other building seeds (frontend_shift/plan.md's addendum).
 set -e
 SLAM=${SLAM:-icp_45deg}
 OUT=${OUT:-/work/runs/kf45_val}
 POLICIES=${POLICIES:-[learned,em]}
+FIRST=${FIRST:-1010}
+LAST=${LAST:-1039}
 EVAL="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
 COMMON="scene=building slam=$SLAM graph.max_nodes=1024 evaluate.trials=1 explore.travel_budget=250 \
   evaluate.progress_bar=false evaluate.workers=1 evaluate.policies=$POLICIES $EXTRA"
 mkdir -p $OUT
 stream() {  # stream START: every other seed from START
-  for SEED in $(seq $1 2 1039); do
+  for SEED in $(seq $1 2 $LAST); do
     [ -e $OUT/building_$SEED/trials.jsonl ] && continue  # finished before a restart
     echo "building $SEED start $(date +%s)"
     $EVAL $COMMON scene.seed=$SEED out=$OUT/building_$SEED
     echo "building $SEED end $(date +%s)"
   done
 }
-stream 1010 > ${OUT}_even.log 2>&1 &
-stream 1011 > ${OUT}_odd.log 2>&1
+stream $FIRST > ${OUT}_even.log 2>&1 &
+stream $((FIRST + 1)) > ${OUT}_odd.log 2>&1
 wait
