@@ -105,14 +105,20 @@ def drive_icp(seed: int, goals_limit: int | None) -> dict:
             "scores": scores(icp.session, icp.seconds), "steps": icp.steps}
 
 
+def redraw(session: SlamSession, seed: int, draw: int) -> None:
+    """``draw > 0``: another draw of a ``model`` session's noise (scan matching, loop closures); 0 keeps the
+    session's own."""
+    if draw:
+        session.frontend.rng = np.random.default_rng([seed, 100 + draw])
+        if hasattr(session.loop_closer, "rng"):
+            session.loop_closer.rng = np.random.default_rng([seed, 200 + draw])
+
+
 def replay_model(seed: int, steps: list, draw: int) -> dict:
     """The same motion steps into a `model` session; ``draw > 0``: other draws of its noise."""
     config, scene = tour_config(seed, "icp")
     model = new_session(config, scene, "model")
-    if draw:
-        model.frontend.rng = np.random.default_rng([seed, 100 + draw])
-        if hasattr(model.loop_closer, "rng"):
-            model.loop_closer.rng = np.random.default_rng([seed, 200 + draw])
+    redraw(model, seed, draw)
     start = time.perf_counter()
     for step in steps:
         model.observe(step)

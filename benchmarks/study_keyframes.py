@@ -34,7 +34,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_frontends import drive_icp, in_fresh_process, new_session, scores  # noqa: E402
+from bench_frontends import drive_icp, in_fresh_process, new_session, redraw, scores  # noqa: E402
 from common import emit, machine, parse_args, seed_list  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
@@ -53,10 +53,7 @@ def replay(seed: int, steps: list, frontend: str, spacing: tuple[float, float], 
     config.scene.start_index = config.tour.start_index
     scene = make_scene(config.scene, config.robot, config.lidar)
     session = new_session(config, scene, frontend)
-    if draw:
-        session.frontend.rng = np.random.default_rng([seed, 100 + draw])
-        if hasattr(session.loop_closer, "rng"):
-            session.loop_closer.rng = np.random.default_rng([seed, 200 + draw])
+    redraw(session, seed, draw)
     start = time.perf_counter()
     for step in steps:
         session.observe(step)

@@ -46,6 +46,8 @@ SCRIPTS = [
       "same_explored", "profile", "fast_overrides"]),
     ("benchmarks/study_keyframes.py", ["--spacings", "1:45", "--model-set",
                                        "slam.loop_closure.model_step_sigma_translation=0.012"], ["table", "model_set"]),
+    ("benchmarks/study_fidelity.py", ["--model-set", "slam.loop_closure.model_step_sigma_translation=0.008"],
+     ["pooled", "buildings", "model_set"]),
     ("benchmarks/study_zero_shot.py", [str(ROOT / "benchmarks/results/zero_shot_v3_10"), "--out", "{tmp}/targets"],
      ["reports"]),
     ("benchmarks/collect_decisions.py", ["--out", "{tmp}/decisions", "--set", "train.dataset_capacity=16"],
