@@ -25,7 +25,7 @@ from explore_rl.robot_config import RobotConfig
 from explore_rl.run_config import POLICIES, EvaluateConfig, ExploreConfig, TourConfig
 from explore_rl.scene.config import SceneConfig, validate_building
 from explore_rl.sensors.config import LidarConfig
-from explore_rl.slam.config import SlamConfig, loop_closures_path
+from explore_rl.slam.config import SlamConfig, loop_closures_path, scan_matching_path
 from explore_rl.trainer.config import (
     ESTIMATORS,
     DISTILL_TARGETS,
@@ -237,6 +237,10 @@ def validate_slam(config: Config) -> None:
     if slam.frontend == "model" and calibration and not loop_closures_path(calibration).is_file():
         raise ValueError(f"slam.loop_closure.calibration_file={calibration!r}: no such file (give a path, or a "
                          "file name in conf/calibration/; write one with scripts/calibrate_loop_closures.py --out)")
+    calibration = slam.scan_matcher.calibration_file
+    if slam.frontend == "model" and calibration and not scan_matching_path(calibration).is_file():
+        raise ValueError(f"slam.scan_matcher.calibration_file={calibration!r}: no such file (give a path, or a "
+                         "file name in conf/calibration/; write one with scripts/calibrate_scan_matching.py --out)")
 
 
 def validate_explore(config: Config) -> None:

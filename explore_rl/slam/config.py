@@ -141,6 +141,11 @@ class ScanMatcherConfig:
     off_plane_sigma: float = 1.0
     degenerate_sigma: float = 100.0
 
+    # The `model` front end's scan-matching error model (slam.frontend=model only): a file of
+    # scripts/calibrate_scan_matching.py; empty = conf/calibration/scan_matching.yaml (office tours and
+    # office/street/garage explorations), a bare file name = that file in conf/calibration/.
+    calibration_file: str = ""
+
 
 @dataclass
 class LoopClosureConfig:
@@ -310,9 +315,18 @@ def calibration_dir() -> Path:
     return conf_dir() / "calibration"
 
 
-def loop_closures_path(name: str) -> Path:
-    """``slam.loop_closure.calibration_file`` as a path: empty = the default
-    ``conf/calibration/loop_closures.yaml``, a bare file name = that file in
-    ``conf/calibration/``, anything else as given."""
-    path = Path(name or "loop_closures.yaml")
+def calibration_path(name: str, default: str) -> Path:
+    """A ``calibration_file`` config value as a path: empty = ``default`` in ``conf/calibration/``, a bare file
+    name = that file in ``conf/calibration/``, anything else as given."""
+    path = Path(name or default)
     return calibration_dir() / path if path.parent == Path(".") else path
+
+
+def loop_closures_path(name: str) -> Path:
+    """``slam.loop_closure.calibration_file`` as a path (default ``conf/calibration/loop_closures.yaml``)."""
+    return calibration_path(name, "loop_closures.yaml")
+
+
+def scan_matching_path(name: str) -> Path:
+    """``slam.scan_matcher.calibration_file`` as a path (default ``conf/calibration/scan_matching.yaml``)."""
+    return calibration_path(name, "scan_matching.yaml")

@@ -88,7 +88,7 @@ from explore_rl.slam.calibration import (
     cached_scan_matching,
     draw_index,
 )
-from explore_rl.slam.config import LoopClosureConfig, SlamConfig, loop_closures_path
+from explore_rl.slam.config import LoopClosureConfig, SlamConfig, loop_closures_path, scan_matching_path
 from explore_rl.slam.frontend import ScanMatch
 from explore_rl.slam.loop_closure import closest_separated
 
@@ -141,7 +141,9 @@ class ModelFrontend:
     def __init__(self, config: SlamConfig, calibration: ScanMatchingCalibration | None = None,
                  rng: np.random.Generator | None = None, mount_height: float | None = None):
         self.config = config
-        self.calibration = calibration if calibration is not None else cached_scan_matching()
+        if calibration is None:
+            calibration = cached_scan_matching(str(scan_matching_path(config.scan_matcher.calibration_file)))
+        self.calibration = calibration
         self.rng = rng
         cal = self.calibration
         self.mount_height = cal.mount_height if mount_height is None else mount_height

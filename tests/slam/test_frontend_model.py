@@ -482,3 +482,23 @@ def test_closure_endpoint_tables_grown_in_place_equal_the_reallocating_update():
         for p, q in closures:
             weights[index[p], index[q]] = weights[index[q], index[p]] = 1e-3  # ~0 (rounded off), still an edge
         np.testing.assert_array_equal(closer._distance, np.round(shortest_path(weights, method="FW", directed=False)))
+
+
+def test_the_model_reads_the_scan_matching_file_the_config_names(tmp_path):
+    from explore_rl.config import load_config
+    from explore_rl.slam.calibration import SCAN_MATCHING_FILE
+    from explore_rl.slam.config import SlamConfig, scan_matching_path
+    from explore_rl.slam.frontend_model import ModelFrontend
+
+    document = yaml.safe_load(SCAN_MATCHING_FILE.read_text())
+    document["degenerate"]["rate"] = [1.0] * len(document["degenerate"]["rate"])  # every scan degenerate
+    path = tmp_path / "refit.yaml"
+    path.write_text(yaml.safe_dump(document))
+    config = load_config(["slam=model", f"slam.scan_matcher.calibration_file={path}"]).slam
+    frontend = ModelFrontend(config)
+    assert frontend.calibration.path == str(path) and set(frontend.calibration.degenerate_rate) == {1.0}
+    default = ModelFrontend(SlamConfig(frontend="model"))
+    assert default.calibration.path == str(SCAN_MATCHING_FILE) and min(default.calibration.degenerate_rate) < 0.1
+    assert scan_matching_path("scan_matching.yaml") == SCAN_MATCHING_FILE  # a bare name: conf/calibration/
+    with pytest.raises(ValueError, match="slam.scan_matcher.calibration_file='nope.yaml': no such file"):
+        load_config(["slam=model", "slam.scan_matcher.calibration_file=nope.yaml"])
