@@ -4,17 +4,18 @@
 calibrated. The shipped policies train on generated buildings. Per building (``scene=building
 scene.seed=B``): one live exploration with ``slam=icp`` (steering by its belief; ``--policy``, default random
 valid frontiers, at most ``--decisions``) records every motion step its SLAM session observed; the same steps
-are replayed into ``slam=model`` sessions (``--draws`` noise draws, config ``--model-set``) on the same scene.
-Per building: keyframes, ATE, map error and loop closures of icp and of the model (mean over draws). Pooled:
-the geometric mean over buildings of model / icp for each, with a 95 % Student-t interval of the mean log
-ratio (buildings are the independent units).
+are replayed into ``slam=model`` sessions (``--draws`` noise draws) on the same scene, once per model variant
+(each ``--model-set``; none: the default model). Per building: keyframes, ATE, map error and loop closures of
+icp and of each variant (mean over draws). Pooled, per variant: the geometric mean over buildings of model / icp
+for each, with a 95 % Student-t interval of the mean log ratio (buildings are the independent units).
 
     python benchmarks/study_fidelity.py [--quick | --smoke] [--seeds 100-111] [--decisions 30] [--draws 2]
-        [--policy random] [--workers 2] [--set KEY=VALUE ...] [--model-set KEY=VALUE ...]
+        [--policy random] [--workers 2] [--set KEY=VALUE ...] [--model-set KEY=VALUE ... [--model-set ...]]
 
-``--set``: overrides of both front ends (e.g. ``slam.keyframe_angle_deg=45``); ``--model-set``: of the model's
-replays only (e.g. another loop-closure fit, ``slam.loop_closure.calibration_file=...``). Buildings run on
-``--workers`` spawned processes; the last stdout line is JSON.
+``--set``: overrides of both front ends (e.g. ``slam.loop_closure.enabled=false``: odometry alone);
+``--model-set``: one variant of the model's replays (e.g. ``slam.scan_matcher.calibration_file=...``), repeatable
+(``--model-set`` with no value: the default model as one of them). Buildings run on ``--workers`` spawned
+processes; the last stdout line is JSON.
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ class Task:
     policy: str
     draws: int
     overrides: tuple[str, ...]
-    model_overrides: tuple[str, ...]
+    model_variants: tuple[tuple[str, ...], ...]
 
 
 def building_config(task: Task, frontend: str, extra: tuple[str, ...] = ()):
@@ -72,28 +73,34 @@ def compare_building(task: Task) -> dict:
     explorer.session.observe = recording_observe
     explorer.run()
     icp = {key: scores(explorer.session, 1.0)[key] for key in COMPARED}
-    model_config = building_config(task, "model", task.model_overrides)
+    models = [replay_model(task, explorer.scene, steps, variant) for variant in task.model_variants]
+    travel = steps[-1].travelled if steps else 0.0
+    return {"building": task.building, "travel_m": round(travel, 2), "icp": icp,
+            "models": [{key: float(np.mean([d[key] for d in draws])) for key in COMPARED} for draws in models],
+            "model_draws": models}
+
+
+def replay_model(task: Task, scene, steps: list, variant: tuple[str, ...]) -> list[dict]:
+    """The compared figures of ``task.draws`` model sessions (config ``variant``) fed the recorded steps."""
+    config = building_config(task, "model", variant)
     draws = []
     for draw in range(task.draws):
-        session = new_session(model_config, explorer.scene, "model")
+        session = new_session(config, scene, "model")
         redraw(session, task.building, draw)
         for step in steps:
             session.observe(step)
         draws.append({key: scores(session, 1.0)[key] for key in COMPARED})
-    model = {key: float(np.mean([d[key] for d in draws])) for key in COMPARED}
-    travel = steps[-1].travelled if steps else 0.0
-    return {"building": task.building, "travel_m": round(travel, 2), "icp": icp, "model": model,
-            "model_draws": draws}
+    return draws
 
 
-def pooled_ratios(rows: list[dict]) -> dict:
-    """Per compared quantity: the geometric mean over buildings of model / icp and its 95 % interval (loop
-    closures counted +1, so that a building where one front end closes none stays in; a building where either
-    error is 0 is left out of that quantity, and counted)."""
+def pooled_ratios(rows: list[dict], variant: int = 0) -> dict:
+    """Per compared quantity: the geometric mean over buildings of model variant ``variant`` / icp and its 95 %
+    interval (loop closures counted +1, so that a building where one front end closes none stays in; a building
+    where either error is 0 is left out of that quantity, and counted)."""
     pooled = {}
     for key in COMPARED:
         shift = 1.0 if key == "loop_closures" else 0.0
-        pairs = [(r["model"][key] + shift, r["icp"][key] + shift) for r in rows]
+        pairs = [(r["models"][variant][key] + shift, r["icp"][key] + shift) for r in rows]
         logs = [np.log(model / icp) for model, icp in pairs if model > 0 and icp > 0]
         mean, interval = mean_ci95(logs) if logs else (None, None)
         pooled[key] = {"model_over_icp": None if mean is None else round(float(np.exp(mean)), 3),
@@ -110,8 +117,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--policy", default="random", help="the exploring policy (a policy= config option)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--set", nargs="+", default=[], metavar="KEY=VALUE", help="overrides of both front ends")
-    parser.add_argument("--model-set", nargs="+", default=[], metavar="KEY=VALUE",
-                        help="overrides of the model's replays only")
+    parser.add_argument("--model-set", nargs="*", action="append", default=None, metavar="KEY=VALUE",
+                        help="overrides of the model's replays only: one variant (repeatable; empty: the default)")
 
 
 def main() -> None:
@@ -124,29 +131,32 @@ def main() -> None:
     for name, value in (("--decisions", decisions), ("--draws", draws), ("--workers", args.workers)):
         if value < 1:
             sys.exit(f"{name} {value}: give at least 1")
+    variants = tuple(tuple(v) for v in (args.model_set or [[]]))
     try:  # a bad override fails here, in one line, before any run
-        building_config(Task(seeds[0], decisions, args.policy, draws, tuple(args.set), ()), "model",
-                        tuple(args.model_set))
+        for variant in variants:
+            building_config(Task(seeds[0], decisions, args.policy, draws, tuple(args.set), ()), "model", variant)
     except Exception as error:  # noqa: BLE001 -- Hydra's and validate()'s errors alike
         sys.exit(f"--set/--model-set/--policy: {str(error).splitlines()[0]}")
-    tasks = [Task(b, decisions, args.policy, draws, tuple(args.set), tuple(args.model_set)) for b in seeds]
+    tasks = [Task(b, decisions, args.policy, draws, tuple(args.set), variants) for b in seeds]
     rows = []
     for row in spawned_results(compare_building, tasks, min(args.workers, len(tasks))):
         rows.append(row)
-        icp, model = row["icp"], row["model"]
+        icp = row["icp"]
+        models = "; ".join(f"model {v} ATE {m['ate_m']:.3f} map error {m['map_error_m']:.3f} closures "
+                           f"{m['loop_closures']:.1f}" for v, m in enumerate(row["models"]))
         print(f"building {row['building']}: {row['travel_m']:.0f} m, icp ATE {icp['ate_m']:.3f} map error "
-              f"{icp['map_error_m']:.3f} closures {icp['loop_closures']}; model ATE {model['ate_m']:.3f} map error "
-              f"{model['map_error_m']:.3f} closures {model['loop_closures']:.1f}", flush=True)
+              f"{icp['map_error_m']:.3f} closures {icp['loop_closures']}; {models}", flush=True)
     if not rows:
         sys.exit("no building finished (see the errors above)")
     rows.sort(key=lambda r: r["building"])
-    pooled = pooled_ratios(rows)
-    for key, value in pooled.items():
-        print(f"{key}: model / icp {value['model_over_icp']} {value['ci95']} over {value['buildings']} buildings")
+    pooled = [pooled_ratios(rows, v) for v in range(len(variants))]
+    for v, (variant, ratios) in enumerate(zip(variants, pooled)):
+        print(f"model {v} ({' '.join(variant) or 'default'}):")
+        for key, value in ratios.items():
+            print(f"  {key}: model / icp {value['model_over_icp']} {value['ci95']} over {value['buildings']} buildings")
     emit({"study": "fidelity", "quick": args.quick, "smoke": args.smoke, "seeds": seeds, "decisions": decisions,
-          "draws": draws, "policy": args.policy, "set": args.set, "model_set": args.model_set,
+          "draws": draws, "policy": args.policy, "set": args.set, "model_sets": [list(v) for v in variants],
           "machine": machine(), "pooled": pooled, "buildings": rows})
-
 
 if __name__ == "__main__":
     main()

@@ -14,7 +14,8 @@ SCRIPT = "benchmarks/study_fidelity.py"
 
 
 def row(icp: dict, model: dict) -> dict:
-    return {"icp": icp, "model": model}
+    """A building's figures: icp's, and two model variants (the second one twice the first's)."""
+    return {"icp": icp, "models": [model, {key: 2.0 * value for key, value in model.items()}]}
 
 
 def test_pooled_ratios_are_geometric_means_over_buildings() -> None:
@@ -35,11 +36,15 @@ def test_pooled_ratios_are_geometric_means_over_buildings() -> None:
     # closures +1: 4/1, 5/10, 2/2
     assert math.isclose(pooled["loop_closures"]["model_over_icp"], round((4.0 * 0.5 * 1.0) ** (1 / 3), 3))
     assert pooled["keyframes"] == {"model_over_icp": 1.0, "ci95": [1.0, 1.0], "buildings": 3}
+    second = study.pooled_ratios(rows, 1)
+    assert math.isclose(second["ate_m"]["model_over_icp"], round(2.0 * (2.0 * 1.0 * 0.5) ** (1 / 3), 3))
+    assert second["keyframes"]["model_over_icp"] == 2.0
 
 
 @pytest.mark.parametrize(("args", "message"), [(["--decisions", "0"], "--decisions 0: give at least 1"),
                                                (["--seeds", "x"], "x"),
-                                               (["--model-set", "slam.nope=1"], "nope")])
+                                               (["--model-set", "slam.nope=1"], "nope"),
+                                               (["--model-set", "--model-set", "slam.nope=1"], "nope")])
 def test_bad_arguments_are_refused_before_any_run(monkeypatch, capsys, args, message) -> None:
     study = load_script(SCRIPT)
     monkeypatch.setattr(sys, "argv", [SCRIPT, *args])
