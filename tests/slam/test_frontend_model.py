@@ -502,3 +502,27 @@ def test_the_model_reads_the_scan_matching_file_the_config_names(tmp_path):
     assert scan_matching_path("scan_matching.yaml") == SCAN_MATCHING_FILE  # a bare name: conf/calibration/
     with pytest.raises(ValueError, match="slam.scan_matcher.calibration_file='nope.yaml': no such file"):
         load_config(["slam=model", "slam.scan_matcher.calibration_file=nope.yaml"])
+
+
+def test_the_buildings_preset_reads_its_own_fits_at_the_default_spacing(caplog, monkeypatch):
+    from explore_rl.config import load_config
+    from explore_rl.slam import session
+    from explore_rl.slam.calibration import SCAN_MATCHING_FILE
+    from explore_rl.slam.config import loop_closures_path, scan_matching_path
+    from explore_rl.slam.frontend_model import ModelFrontend
+    from explore_rl.slam.session import make_loop_closer
+
+    monkeypatch.setattr(session, "_SPACING_WARNED", set())
+    preset, default = load_config(["slam=model_buildings"]).slam, load_config(["slam=model"]).slam
+    with caplog.at_level("WARNING", logger="explore_rl.slam.session"):
+        closer = make_loop_closer(preset)
+    assert not [r for r in caplog.records if "was fitted at" in r.getMessage()]
+    assert closer.calibration.path == str(loop_closures_path("loop_closures_buildings.yaml"))
+    assert closer.calibration.keyframe_spacing == (preset.keyframe_distance, preset.keyframe_angle_deg)
+    frontend = ModelFrontend(preset)
+    assert frontend.calibration.path == str(scan_matching_path("scan_matching_buildings.yaml")) != str(SCAN_MATCHING_FILE)
+    assert preset.loop_closure.model_step_sigma_translation < default.loop_closure.model_step_sigma_translation
+    # everything else is slam=model's: the same graph, keyframes and candidate rules
+    assert (preset.keyframe_distance, preset.keyframe_angle_deg, preset.pose_graph) == (
+        default.keyframe_distance, default.keyframe_angle_deg, default.pose_graph)
+    assert preset.loop_closure.search_radius == default.loop_closure.search_radius
