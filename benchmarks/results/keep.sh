@@ -24,3 +24,12 @@ val_study() {
   $PY $RESULTS/../study_zero_shot.py $2/runs/$3 --reference $pair --reference-policy learned --pool ${3}_direct \
     --out $2/targets_${3}_direct > $2/direct_$3.log
 }
+
+# self_vs HERE RUNS REFERENCE NAME: EM and the learned policy of RUNS each against its own trials in REFERENCE
+# (study_zero_shot.py --policy P --reference-policy P): HERE/P_NAME.log and HERE/targets_P_NAME
+self_vs() {
+  for policy in em learned; do
+    $PY $RESULTS/../study_zero_shot.py $2 --policy $policy --reference $3 --reference-policy $policy \
+      --pool ${policy}_$4 --out $1/targets_${policy}_$4 > $1/${policy}_$4.log
+  done
+}

@@ -9,15 +9,10 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
-STUDY=$RESULTS/../study_zero_shot.py
 ICP=$RESULTS/keyframes_45deg/runs/val_15deg
 MODEL=$RESULTS/frontend_shift/runs/val_model
 V=$HERE/runs/val_model_buildings
 keep /work/runs/modelb_val $V
-$PY $STUDY $V --pool val_model_buildings --out $HERE/targets_val_model_buildings > $HERE/study_val_model_buildings.log
-for policy in em learned; do
-  $PY $STUDY $V --policy $policy --reference $ICP --reference-policy $policy --pool ${policy}_model_buildings_vs_icp \
-    --out $HERE/targets_${policy}_model_buildings_vs_icp > $HERE/${policy}_model_buildings_vs_icp.log
-  $PY $STUDY $MODEL --policy $policy --reference $ICP --reference-policy $policy --pool ${policy}_model_vs_icp \
-    --out $HERE/targets_${policy}_model_vs_icp > $HERE/${policy}_model_vs_icp.log
-done
+$PY $RESULTS/../study_zero_shot.py $V --pool val_model_buildings --out $HERE/targets_val_model_buildings > $HERE/study_val_model_buildings.log
+self_vs $HERE $V $ICP model_buildings_vs_icp
+self_vs $HERE $MODEL $ICP model_vs_icp
