@@ -158,5 +158,6 @@ def main() -> None:
           "draws": draws, "policy": args.policy, "set": args.set, "model_sets": [list(v) for v in variants],
           "machine": machine(), "pooled": pooled, "buildings": rows})
 
+
 if __name__ == "__main__":
     main()

@@ -233,14 +233,14 @@ def validate_slam(config: Config) -> None:
     checks.at_least("slam.map_error_points", slam.map_error_points, 1)
     checks.positive("slam.loop_closure.model_step_sigma_translation", slam.loop_closure.model_step_sigma_translation)
     checks.positive("slam.loop_closure.model_step_sigma_rotation_deg", slam.loop_closure.model_step_sigma_rotation_deg)
-    calibration = slam.loop_closure.calibration_file
-    if slam.frontend == "model" and calibration and not loop_closures_path(calibration).is_file():
-        raise ValueError(f"slam.loop_closure.calibration_file={calibration!r}: no such file (give a path, or a "
-                         "file name in conf/calibration/; write one with scripts/calibrate_loop_closures.py --out)")
-    calibration = slam.scan_matcher.calibration_file
-    if slam.frontend == "model" and calibration and not scan_matching_path(calibration).is_file():
-        raise ValueError(f"slam.scan_matcher.calibration_file={calibration!r}: no such file (give a path, or a "
-                         "file name in conf/calibration/; write one with scripts/calibrate_scan_matching.py --out)")
+    fits = (("slam.loop_closure.calibration_file", slam.loop_closure.calibration_file, loop_closures_path,
+             "calibrate_loop_closures"),
+            ("slam.scan_matcher.calibration_file", slam.scan_matcher.calibration_file, scan_matching_path,
+             "calibrate_scan_matching"))
+    for key, calibration, path, script in fits:  # the model's fits; icp reads neither
+        if slam.frontend == "model" and calibration and not path(calibration).is_file():
+            raise ValueError(f"{key}={calibration!r}: no such file (give a path, or a file name in "
+                             f"conf/calibration/; write one with scripts/{script}.py --out)")
 
 
 def validate_explore(config: Config) -> None:
