@@ -29,3 +29,6 @@ for set in 60 90; do
   $PY $HERE/shift.py $HERE/targets_val_icp_$set/val_icp_$set/targets.json \
     $HERE/targets_val_model_$set/val_model_$set/targets.json > $HERE/shift_$set.log
 done
+# exploratory decomposition (after reading shift_30): each policy under the model against itself under icp, 90 buildings
+#   {em,learned}_model_vs_icp_90.log
+self_vs $HERE "$V $VM" "$ICP30 $VI" model_vs_icp_90  # folders of several reports: one string each
