@@ -58,6 +58,12 @@ def building_config(task: Task, frontend: str, extra: tuple[str, ...] = ()):
                         f"explore.max_decisions={task.decisions}", *task.overrides, *extra])
 
 
+def compared(session) -> dict:
+    """The :data:`COMPARED` figures of one session (its metrics computed once)."""
+    figures = scores(session, 1.0)
+    return {key: figures[key] for key in COMPARED}
+
+
 def compare_building(task: Task) -> dict:
     """The live icp exploration of one building and the model's replays of its motion steps."""
     from explore_rl.runner import Explorer
@@ -72,7 +78,7 @@ def compare_building(task: Task) -> dict:
 
     explorer.session.observe = recording_observe
     explorer.run()
-    icp = {key: scores(explorer.session, 1.0)[key] for key in COMPARED}
+    icp = compared(explorer.session)
     models = [replay_model(task, explorer.scene, steps, variant) for variant in task.model_variants]
     travel = steps[-1].travelled if steps else 0.0
     return {"building": task.building, "travel_m": round(travel, 2), "icp": icp,
@@ -89,7 +95,7 @@ def replay_model(task: Task, scene, steps: list, variant: tuple[str, ...]) -> li
         redraw(session, task.building, draw)
         for step in steps:
             session.observe(step)
-        draws.append({key: scores(session, 1.0)[key] for key in COMPARED})
+        draws.append(compared(session))
     return draws
 
 

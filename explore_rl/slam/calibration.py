@@ -28,9 +28,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from explore_rl.slam.config import calibration_dir, loop_closures_path, scan_matching_path
+from explore_rl.slam.config import loop_closures_path, scan_matching_path
 
-CONF_CALIBRATION = calibration_dir()  # the repository's conf/ or the wheel's copy
 SCAN_MATCHING_FILE = scan_matching_path("")
 LOOP_CLOSURES_FILE = loop_closures_path("")
 
