@@ -3,6 +3,7 @@
 # shipped actor's trials under the same front end (study_zero_shot.py):
 #   study_val_STEPTAG.log    candidate against EM      (the rule's ratios)
 #   direct_val_STEPTAG.log   candidate against the shipped actor
+#   shiftTAG.log             (after both steps) the candidate against the shipped actor, icp over the preset
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -15,3 +16,8 @@ keep /work/runs/tmb_$N $V
 $PY $RESULTS/../study_zero_shot.py $V --reference $REF --pool $N --out $HERE/targets_$N > $HERE/study_$N.log
 $PY $RESULTS/../study_zero_shot.py $V --reference $REF --reference-policy learned --pool ${N}_direct \
   --out $HERE/targets_${N}_direct > $HERE/direct_$N.log
+# with both steps run for a candidate: how its standing against the shipped actor moves from the preset to icp,
+# paired by building (frontend_shift/shift.py; below 1: it stands better under icp): shift_TAG.log
+A=$HERE/targets_val_preset${TAG}_direct/val_preset${TAG}_direct/targets.json
+B=$HERE/targets_val_icp${TAG}_direct/val_icp${TAG}_direct/targets.json
+if [ -e $A ] && [ -e $B ]; then $PY $RESULTS/frontend_shift/shift.py $A $B > $HERE/shift$TAG.log; fi
