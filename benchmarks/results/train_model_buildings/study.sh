@@ -17,7 +17,7 @@ $PY $RESULTS/../study_zero_shot.py $V --reference $REF --pool $N --out $HERE/tar
 $PY $RESULTS/../study_zero_shot.py $V --reference $REF --reference-policy learned --pool ${N}_direct \
   --out $HERE/targets_${N}_direct > $HERE/direct_$N.log
 # with both steps run for a candidate: how its standing against the shipped actor moves from the preset to icp,
-# paired by building (frontend_shift/shift.py; below 1: it stands better under icp): shift_TAG.log
+# paired by building (frontend_shift/shift.py; below 1: it stands better under icp): shiftTAG.log
 A=$HERE/targets_val_preset${TAG}_direct/val_preset${TAG}_direct/targets.json
 B=$HERE/targets_val_icp${TAG}_direct/val_icp${TAG}_direct/targets.json
 if [ -e $A ] && [ -e $B ]; then $PY $RESULTS/frontend_shift/shift.py $A $B > $HERE/shift$TAG.log; fi
