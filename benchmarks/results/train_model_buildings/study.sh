@@ -9,8 +9,9 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 STEP=${STEP:-preset}
 N=val_$STEP$TAG  # TAG: val.sh's candidate suffix
-REF=$RESULTS/fidelity_buildings/runs/val_model_buildings
-[ $STEP = icp ] && REF=$RESULTS/keyframes_45deg/runs/val_15deg
+DEFAULT_REF=$RESULTS/fidelity_buildings/runs/val_model_buildings
+[ $STEP = icp ] && DEFAULT_REF=$RESULTS/keyframes_45deg/runs/val_15deg
+REF=${REF:-$DEFAULT_REF}  # other buildings: their EM and shipped-actor trials (plan.md's last addendum)
 V=$HERE/runs/$N
 keep /work/runs/tmb_$N $V
 $PY $RESULTS/../study_zero_shot.py $V --reference $REF --pool $N --out $HERE/targets_$N > $HERE/study_$N.log

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# plan.md's last addendum (descriptive): the 95-min candidate under icp on the 90 validation buildings 1010-1099
+# pooled, against EM and against the shipped actor (study_zero_shot.py with two report and two reference folders).
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+source $HERE/../keep.sh
+C="$HERE/runs/val_icp_95min $HERE/runs/val_icp_95min_more"
+R="$RESULTS/keyframes_45deg/runs/val_15deg $RESULTS/frontend_shift/runs/val_icp_more"
+$PY $RESULTS/../study_zero_shot.py $C --reference $R --pool val_icp_95min_90 --out $HERE/targets_val_icp_95min_90 \
+  > $HERE/study_val_icp_95min_90.log
+$PY $RESULTS/../study_zero_shot.py $C --reference $R --reference-policy learned --pool val_icp_95min_90_direct \
+  --out $HERE/targets_val_icp_95min_90_direct > $HERE/direct_val_icp_95min_90.log
