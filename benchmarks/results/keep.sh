@@ -14,15 +14,20 @@ keep() {
   done
 }
 
+# vs_em_and_actor HERE NAME "REPORTS" "REFERENCES": study_zero_shot.py of the learned trials in REPORTS against EM's
+# (HERE/study_NAME.log, HERE/targets_NAME) and against the shipped actor's (HERE/direct_NAME.log,
+# HERE/targets_NAME_direct) trials in REFERENCES, paired by building
+vs_em_and_actor() {
+  $PY $RESULTS/../study_zero_shot.py $3 --reference $4 --pool $2 --out $1/targets_$2 > $1/study_$2.log
+  $PY $RESULTS/../study_zero_shot.py $3 --reference $4 --reference-policy learned --pool ${2}_direct \
+    --out $1/targets_${2}_direct > $1/direct_$2.log
+}
+
 # val_study SRC HERE NAME: keep SRC's validation trials (stakes_distill/run.sh, SET=val) in HERE/runs/NAME, then
-# study_zero_shot.py against EM's (HERE/study_NAME.log) and the shipped actor's (HERE/direct_NAME.log) trials of
-# the same config (revisit_bias/runs/val_pair)
+# vs_em_and_actor against the same config's trials (revisit_bias/runs/val_pair)
 val_study() {
-  local pair=$RESULTS/revisit_bias/runs/val_pair
   keep $1 $2/runs/$3
-  $PY $RESULTS/../study_zero_shot.py $2/runs/$3 --reference $pair --pool $3 --out $2/targets_$3 > $2/study_$3.log
-  $PY $RESULTS/../study_zero_shot.py $2/runs/$3 --reference $pair --reference-policy learned --pool ${3}_direct \
-    --out $2/targets_${3}_direct > $2/direct_$3.log
+  vs_em_and_actor $2 $3 $2/runs/$3 $RESULTS/revisit_bias/runs/val_pair
 }
 
 # self_vs HERE RUNS REFERENCE NAME: EM and the learned policy of RUNS each against its own trials in REFERENCE

@@ -6,7 +6,4 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 C="$HERE/runs/val_icp_95min $HERE/runs/val_icp_95min_more"
 R="$RESULTS/keyframes_45deg/runs/val_15deg $RESULTS/frontend_shift/runs/val_icp_more"
-$PY $RESULTS/../study_zero_shot.py $C --reference $R --pool val_icp_95min_90 --out $HERE/targets_val_icp_95min_90 \
-  > $HERE/study_val_icp_95min_90.log
-$PY $RESULTS/../study_zero_shot.py $C --reference $R --reference-policy learned --pool val_icp_95min_90_direct \
-  --out $HERE/targets_val_icp_95min_90_direct > $HERE/direct_val_icp_95min_90.log
+vs_em_and_actor $HERE val_icp_95min_90 "$C" "$R"

@@ -14,9 +14,7 @@ DEFAULT_REF=$RESULTS/fidelity_buildings/runs/val_model_buildings
 REF=${REF:-$DEFAULT_REF}  # other buildings: their EM and shipped-actor trials (plan.md's last addendum)
 V=$HERE/runs/$N
 keep /work/runs/tmb_$N $V
-$PY $RESULTS/../study_zero_shot.py $V --reference $REF --pool $N --out $HERE/targets_$N > $HERE/study_$N.log
-$PY $RESULTS/../study_zero_shot.py $V --reference $REF --reference-policy learned --pool ${N}_direct \
-  --out $HERE/targets_${N}_direct > $HERE/direct_$N.log
+vs_em_and_actor $HERE $N $V $REF
 # with both steps run for a candidate: how its standing against the shipped actor moves from the preset to icp,
 # paired by building (frontend_shift/shift.py; below 1: it stands better under icp): shiftTAG.log
 A=$HERE/targets_val_preset${TAG}_direct/val_preset${TAG}_direct/targets.json
