@@ -8,6 +8,7 @@ set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 STEP=${STEP:-preset}
+case $STEP in preset|icp) ;; *) echo "STEP=$STEP: give STEP=preset or STEP=icp" >&2; exit 2;; esac
 N=val_$STEP$TAG  # TAG: val.sh's candidate suffix
 DEFAULT_REF=$RESULTS/fidelity_buildings/runs/val_model_buildings
 [ $STEP = icp ] && DEFAULT_REF=$RESULTS/keyframes_45deg/runs/val_15deg

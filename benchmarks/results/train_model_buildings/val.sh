@@ -6,6 +6,7 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 STEP=${STEP:-preset}
+case $STEP in preset|icp) ;; *) echo "STEP=$STEP: give STEP=preset or STEP=icp" >&2; exit 2;; esac
 ACTOR=${ACTOR:-/work/runs/tmb/checkpoints/last.pt}
 SLAM=model_buildings; [ $STEP = icp ] && SLAM=icp
 SLAM=$SLAM OUT=/work/runs/tmb_val_$STEP$TAG POLICIES="[learned]" EXTRA="policy.checkpoint=$ACTOR" \
