@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# plan.md: the candidate's loop-prior trials (run.sh) kept in runs/, paired by building (study_zero_shot.py):
+#   study_val_B.log / direct_val_B.log    validation, against EM / the shipped actor (keyframes_45deg/runs/val_15deg)
+#   self_val_B.log                        validation, against the candidate alone (session 49's icp trials)
+#   study_test_B.log / direct_test_B.log  held out, against EM / the shipped actor (zero_shot_buildings_100/runs)
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+source $HERE/../keep.sh
+STUDY="$PY $RESULTS/../study_zero_shot.py"
+for run in /work/runs/clb_*_val; do
+  [ -d $run ] || continue
+  bias=${run#/work/runs/clb_}; bias=${bias%_val}
+  keep $run $HERE/runs/val_$bias
+  vs_em_and_actor $HERE val_$bias $HERE/runs/val_$bias $RESULTS/keyframes_45deg/runs/val_15deg
+  $STUDY $HERE/runs/val_$bias --reference $RESULTS/train_model_buildings/runs/val_icp_95min \
+    --reference-policy learned --pool val_${bias}_self --out $HERE/targets_val_${bias}_self > $HERE/self_val_$bias.log
+done
+ZS=$RESULTS/zero_shot_buildings_100/runs
+for run in /work/runs/clb_*_test; do
+  [ -d $run ] || continue
+  bias=${run#/work/runs/clb_}; bias=${bias%_test}
+  for s in even odd; do keep $run $HERE/runs/test_$bias/$s $s; done
+  vs_em_and_actor $HERE test_$bias "$HERE/runs/test_$bias/even $HERE/runs/test_$bias/odd" "$ZS/even $ZS/odd"
+done
