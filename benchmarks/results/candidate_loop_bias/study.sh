@@ -11,6 +11,7 @@ for run in /work/runs/clb_*_val; do
   [ -d $run ] || continue
   bias=${run#/work/runs/clb_}; bias=${bias%_val}
   keep $run $HERE/runs/val_$bias
+  [ -d $HERE/runs/val_$bias ] || continue  # no building finished yet
   vs_em_and_actor $HERE val_$bias $HERE/runs/val_$bias $RESULTS/keyframes_45deg/runs/val_15deg
   $STUDY $HERE/runs/val_$bias --reference $RESULTS/train_model_buildings/runs/val_icp_95min \
     --reference-policy learned --pool val_${bias}_self --out $HERE/targets_val_${bias}_self > $HERE/self_val_$bias.log
