@@ -2,6 +2,8 @@
 # plan.md: the candidate's loop-prior trials (run.sh) kept in runs/, paired by building (study_zero_shot.py):
 #   study_val_B.log / direct_val_B.log    validation, against EM / the shipped actor (keyframes_45deg/runs/val_15deg)
 #   self_val_B.log                        validation, against the candidate alone (session 49's icp trials)
+#   prior_val_B.log                       validation, against the shipped actor with the same prior (session 46's
+#                                         loop_bias/runs/val_B, where it ran)
 #   study_test_B.log / direct_test_B.log  held out, against EM / the shipped actor (zero_shot_buildings_100/runs)
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -15,6 +17,9 @@ for run in /work/runs/clb_*_val; do
   vs_em_and_actor $HERE val_$bias $HERE/runs/val_$bias $RESULTS/keyframes_45deg/runs/val_15deg
   $STUDY $HERE/runs/val_$bias --reference $RESULTS/train_model_buildings/runs/val_icp_95min \
     --reference-policy learned --pool val_${bias}_self --out $HERE/targets_val_${bias}_self > $HERE/self_val_$bias.log
+  PRIOR=$RESULTS/loop_bias/runs/val_$bias
+  [ -d $PRIOR ] && $STUDY $HERE/runs/val_$bias --reference $PRIOR --reference-policy learned \
+    --pool val_${bias}_prior --out $HERE/targets_val_${bias}_prior > $HERE/prior_val_$bias.log
 done
 ZS=$RESULTS/zero_shot_buildings_100/runs
 for run in /work/runs/clb_*_test; do
