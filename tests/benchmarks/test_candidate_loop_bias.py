@@ -52,7 +52,6 @@ def test_gate_reads_the_current_pose_and_a_zero_gate_keeps_the_actors_choice(tmp
     """At a bias far above the logits' spread, power 1 picks each decision's longest loop where the robot is
     uncertain and the actor's own choice where its uncertainty is 0 (computed here); power 0 the longest loop
     everywhere."""
-
     from explore_rl.config import load_config
     from explore_rl.graph.features import feature_names
     from explore_rl.trainer.dataset import DecisionDataset
