@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import platform
+import sys
 import time
+from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
@@ -73,6 +76,17 @@ def bias_grid(parser: argparse.ArgumentParser, args: argparse.Namespace) -> np.n
     if not args.step > 0 or not args.top >= 0:
         parser.error(f"--step {args.step} --top {args.top}: give a step > 0 and a top >= 0")
     return np.round(np.arange(0.0, args.top + args.step / 2, args.step), 9)
+
+
+def module_at(path: Path, name: str):
+    """The script at ``path`` as a module named ``name`` (several result folders hold a ``probe.py`` or a
+    ``calibrate.py``, so each gets a name of its own); registered while it runs, as an import would be
+    (dataclasses look their module up)."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
 
 
 def time_call(fn: Callable[[], Any], repeats: int = 1) -> float:

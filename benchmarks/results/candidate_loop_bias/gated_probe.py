@@ -16,7 +16,6 @@ towards EM's, not what it does to whole explorations.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -31,16 +30,12 @@ from explore_rl.trainer.dataset import DecisionDataset
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1]))
-from common import add_bias_grid, bias_grid, cluster_bootstrap, layout_clusters  # noqa: E402
+from common import add_bias_grid, bias_grid, cluster_bootstrap, layout_clusters, module_at  # noqa: E402
 
 
 def load_calibration():
     """``loop_bias/calibrate.py`` (its actor scoring and per-decision figures), loaded by path."""
-    spec = importlib.util.spec_from_file_location("loop_bias_calibrate", HERE.parent / "loop_bias" / "calibrate.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return module_at(HERE.parent / "loop_bias" / "calibrate.py", "loop_bias_calibrate")
 
 
 def current_uncertainty(dataset: DecisionDataset, chunk: int) -> torch.Tensor:

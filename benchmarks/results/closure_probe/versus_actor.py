@@ -13,7 +13,6 @@ actor, paired. One JSON line per model or actor; the last line is the summary.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -27,14 +26,8 @@ from explore_rl.models.checkpoint import CheckpointError
 from explore_rl.trainer.dataset import DecisionDataset
 
 HERE = Path(__file__).resolve().parent
-
-
-def module_at(path: Path, name: str):
-    """The script at ``path`` as a module named ``name`` (two folders here each have a ``probe.py``)."""
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+sys.path.insert(0, str(HERE.parents[1]))
+from common import module_at  # noqa: E402
 
 
 distill = module_at(HERE.parent / "stakes_distill" / "probe.py", "stakes_distill_probe")
