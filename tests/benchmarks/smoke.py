@@ -30,6 +30,12 @@ def load_script(script: str):
     return module
 
 
+def json_lines(text: str) -> list[dict]:
+    """The JSON lines of a script's output, in order. Other lines are left out: torchrl logs the first
+    storage it builds in a process to stdout, so whether that line shows depends on what ran before."""
+    return [json.loads(line) for line in text.splitlines() if line.startswith("{")]
+
+
 def run_main(script: str, args: list[str], capsys) -> tuple[int, str, str]:
     """``ROOT/script``'s ``main(args)`` in this process (no interpreter start and imports per call, for the
     small research scripts): its exit code, stdout and stderr as a user would see them (``sys.exit("message")``:

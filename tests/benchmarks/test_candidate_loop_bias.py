@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.benchmarks.smoke import load_script, script_runner
+from tests.benchmarks.smoke import json_lines, load_script, script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 SCRIPT = "benchmarks/results/candidate_loop_bias/gated_probe.py"
@@ -97,7 +97,7 @@ def test_power_zero_is_the_plain_calibration(tmp_path, probe, capsys):
     grid = ["--step", "0.5", "--top", "2"]
     result = probe("--dataset", str(folder), "--actor", str(actor), "--powers", "0", "1", *grid)
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]
+    lines = json_lines(result.stdout)
     rows, summary = lines[:-1], lines[-1]
     assert [row["power"] for row in rows] == [0.0, 1.0] and summary["decisions"] == 24
     low, high = summary["gain_over_power_0"]["1.0"]

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from tests.benchmarks.smoke import ROOT, load_script, script_runner
+from tests.benchmarks.smoke import ROOT, json_lines, load_script, script_runner
 
 FOLDER = ROOT / "benchmarks" / "results" / "closure_probe"
 
@@ -122,7 +122,7 @@ def test_the_probe_finds_the_information_where_it_is(tmp_path, run_here):
     made_up_decisions(tmp_path / "decisions.jsonl")
     result = run_here("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"))
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = json_lines(result.stdout)
     models = {line["model"]: line for line in lines[:4]}
     assert models["loops + loop_uncertainty"]["gap_closed"] > 0.95
     assert models["loops + loop_uncertainty, pairwise"]["gap_closed"] > 0.9
@@ -140,7 +140,7 @@ def test_each_group_is_tested_alone_and_together(tmp_path, run_here):
     result = run_here("probe.py", "--decisions", str(tmp_path / "decisions.jsonl"), "--extras", "loop_uncertainty",
                  "path_map")
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = json_lines(result.stdout)
     models = {line["model"]: line["gap_closed"] for line in lines[:-1]}
     assert len(models) == 8
     assert models["loops + path_map"] > 0.95 and models["loops + loop_uncertainty + path_map"] > 0.95

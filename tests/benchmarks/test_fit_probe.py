@@ -4,13 +4,12 @@ arguments are refused in one line."""
 
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import run_main, script_runner
+from tests.benchmarks.smoke import json_lines, run_main, script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 @pytest.fixture()
@@ -35,7 +34,7 @@ def test_members_and_ensemble_figures(tmp_path, run):
     paths = [tiny_actor(tmp_path / f"a{seed}", "loops", seed) for seed in (0, 1)]
     result = run(*map(str, paths), "--dataset", str(tmp_path / "data"))
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = json_lines(result.stdout)
     probe = [i for i, d in enumerate(decisions) if int(d["layout"]) % 4 == 3]
     batch = padded_batch(DecisionDataset(tmp_path / "data").rows(torch.tensor(probe)), list(range(11)))
     log_probs = []
@@ -78,7 +77,7 @@ def test_memory_script_reports_the_growth_per_100_steps(tmp_path, capsys):
     script = "benchmarks/results/fit_probe/memory.py"
     code, out, err = run_main(script, ["--dataset", str(tmp_path / "data"), "--steps", "3", "--every", "1"], capsys)
     assert code == 0, err
-    lines = [json.loads(line) for line in out.strip().splitlines()]
+    lines = json_lines(out)
     assert [line["steps"] for line in lines[:3]] == [1, 2, 3] and all(line["resident_mb"] > 0 for line in lines[:3])
     summary = lines[3]
     assert summary["first_mb"] == lines[0]["resident_mb"] and summary["last_mb"] == lines[2]["resident_mb"]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import script_runner
+from tests.benchmarks.smoke import json_lines, script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 
@@ -38,7 +38,7 @@ def test_the_widened_actor_starts_as_the_actor_and_both_arms_train(files, run):
     result = run("--arm", "widened", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path),
                  "--steps", "2", "--every", "2", "--in-sample", "5", "--out", str(tmp_path / "out"))
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = json_lines(result.stdout)
     rows, pair, summary = lines[:4], lines[4], lines[5]
     assert [(row["actor"], row["steps"]) for row in rows] == [
         ("widened_extended_seed0", 0), ("widened_extended_seed0", 2),
@@ -92,7 +92,7 @@ def test_one_feature_set_with_another_network(files, run):
                  "--feature-sets", "loops", "--dropout", "0", "--hidden", "6", "--steps", "2", "--every", "1",
                  "--in-sample", "5", "--out", str(tmp_path / "out"))
     assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines()]
+    lines = json_lines(result.stdout)
     assert [(row["actor"], row["steps"]) for row in lines[:3]] == [
         ("scratch_loops_seed0", 0), ("scratch_loops_seed0", 1), ("scratch_loops_seed0", 2)]
     pair, summary = lines[3], lines[4]

@@ -4,13 +4,12 @@ in one line."""
 
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pytest
 import torch
 
-from tests.benchmarks.smoke import script_runner
+from tests.benchmarks.smoke import json_lines, script_runner
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 @pytest.fixture()
@@ -34,8 +33,7 @@ def test_ridge_and_actor_on_the_same_held_out_decisions(tmp_path, run):
     actor_path = tiny_actor(tmp_path / "actor", "loops")
     result = run(str(actor_path), "--dataset", str(tmp_path / "data"))
     assert result.returncode == 0, result.stderr
-    # the script's JSON lines (torchrl's first storage log goes to stdout too when this test runs alone)
-    lines = [json.loads(line) for line in result.stdout.strip().splitlines() if line.startswith("{")]
+    lines = json_lines(result.stdout)
     assert [line["model"] for line in lines[:3]] == ["ridge loops", "ridge loops, pairwise", str(actor_path)]
     probe = [i for i, d in enumerate(decisions) if int(d["layout"]) % 4 == 3]
     batch = padded_batch(DecisionDataset(tmp_path / "data").rows(torch.tensor(probe)), list(range(11)))
