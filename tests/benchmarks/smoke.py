@@ -7,7 +7,6 @@ cores) and the working directory ``cwd`` (a tmp dir, so nothing lands in the che
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -17,17 +16,14 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from common import module_at  # noqa: E402
 
 
 def load_script(script: str):
     """Import ``ROOT/script`` as a module (its functions, without running its main), under a name of its own."""
     path = ROOT / script
-    name = "script_" + "_".join(path.relative_to(ROOT).with_suffix("").parts[-2:])  # unique: several probe.py
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # registered while it runs, as an import would (dataclasses look it up)
-    spec.loader.exec_module(module)
-    return module
+    return module_at(path, "script_" + "_".join(path.relative_to(ROOT).with_suffix("").parts[-2:]))  # several probe.py
 
 
 def json_lines(text: str) -> list[dict]:
