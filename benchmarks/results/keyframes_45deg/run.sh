@@ -5,14 +5,17 @@
 # SLAM=icp OUT=/work/runs/kf15_val: the same at 15 deg on this machine (addendum: wall time per building).
 # POLICIES=[em] EXTRA="key=value ...": other policies, more overrides (addendum: loop-closure budgets).
 # FIRST=1040 LAST=1099: other building seeds (frontend_shift/plan.md's addendum).
+# BUDGET=m MAX_NODES=n: another travel budget and graph.max_nodes (stop_coverage/plan.md).
 set -e
 SLAM=${SLAM:-icp_45deg}
 OUT=${OUT:-/work/runs/kf45_val}
 POLICIES=${POLICIES:-[learned,em]}
 FIRST=${FIRST:-1010}
 LAST=${LAST:-1039}
+BUDGET=${BUDGET:-250}
+MAX_NODES=${MAX_NODES:-1024}
 EVAL="nice -n 5 /work/main/.venv/bin/explore-rl-eval"
-COMMON="scene=building slam=$SLAM graph.max_nodes=1024 evaluate.trials=1 explore.travel_budget=250 \
+COMMON="scene=building slam=$SLAM graph.max_nodes=$MAX_NODES evaluate.trials=1 explore.travel_budget=$BUDGET \
   evaluate.progress_bar=false evaluate.workers=1 evaluate.policies=$POLICIES $EXTRA"
 mkdir -p $OUT
 stream() {  # stream START: every other seed from START
