@@ -1,5 +1,6 @@
 """stop_coverage/reached.py: the buildings where every policy reached the stop coverage are copied, the others
-not; the counts per policy; bad arguments refused in one line."""
+not; the counts per policy. by_coverage.py: the pooled ratios at each coverage over the buildings both reached,
+against ratios built into made-up explorations. Bad arguments refused in one line."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import json
 from tests.benchmarks.smoke import run_main
 
 SCRIPT = "benchmarks/results/stop_coverage/reached.py"
+BY_COVERAGE = "benchmarks/results/stop_coverage/by_coverage.py"
 
 
 def building(run, seed: int, explored: dict[str, float]):
@@ -42,3 +44,35 @@ def test_reached_refuses_bad_arguments_in_one_line(tmp_path, capsys):
     building(tmp_path / "val", 1010, {"learned": 0.9, "em": 0.9})
     code, _, err = run_main(SCRIPT, [str(tmp_path / "val"), "--out", str(tmp_path / "o"), "--target", "85"], capsys)
     assert code == 2 and "--target 85.0" in err
+
+
+def exploration(policy: str, metres_per_step: float, errors: list[float], last: float) -> dict:
+    """A trial exploring 10 % per decision up to ``last``, ``metres_per_step`` each, map error ``errors[i]``."""
+    steps = int(round(last * 10))
+    rows = [{"decision": i, "travel_m": metres_per_step * (i + 1), "explored": 0.1 * (i + 1),
+             "map_error_m": errors[i], "loop_closures": 0} for i in range(steps)]
+    return {"scene": "b", "policy": policy, "status": "explored", "rows": rows, "ms_decide": 10.0,
+            "explored": rows[-1]["explored"]}
+
+
+def test_by_coverage_pools_the_buildings_that_reached_each_coverage(tmp_path, capsys):
+    em_errors = [0.1 * (i + 1) for i in range(10)]
+    for seed, em_last in ((1, 1.0), (2, 1.0), (3, 0.6)):  # EM stops at 60 % in building 3
+        folder = tmp_path / "val" / f"building_{seed}"
+        folder.mkdir(parents=True)
+        trials = [exploration("learned", 12.0, [2.0 * e if i < 5 else e for i, e in enumerate(em_errors)], 1.0),
+                  exploration("em", 10.0, em_errors, em_last)]
+        for trial in trials:
+            trial["scene"] = f"building_{seed}"
+        folder.joinpath("trials.jsonl").write_text("".join(json.dumps(t) + "\n" for t in trials))
+    code, out, _ = run_main(BY_COVERAGE, [str(tmp_path / "val"), "--coverages", "0.5", "0.8", "--resamples", "50"],
+                            capsys)
+    half, late = [json.loads(line) for line in out.strip().splitlines()]
+    # learned drives 1.2x EM's metres per 10 %; its map error is twice EM's up to 50 % explored, EM's after
+    assert code == 0 and half["buildings"] == 3 and late["buildings"] == 2
+    assert abs(half["travel_ratio"] - 1.2) < 1e-6 and abs(half["error_ratio"] - 2.0) < 1e-6
+    assert abs(late["travel_ratio"] - 1.2) < 1e-6 and abs(late["error_ratio"] - 1.0) < 1e-6
+    code, _, err = run_main(BY_COVERAGE, [str(tmp_path / "val"), "--coverages", "85"], capsys)
+    assert code == 2 and "--coverages 85.0" in err
+    code, _, err = run_main(BY_COVERAGE, [str(tmp_path / "nothing")], capsys)
+    assert code == 2 and "no building_SEED/trials.jsonl" in err

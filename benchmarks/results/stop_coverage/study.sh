@@ -4,6 +4,7 @@
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
 #   reached_SET.log                              how many buildings each policy brought to 85 %
 #   study_SET_reached.log / targets_SET_reached  only the buildings both policies brought to 85 %
+#   by_coverage_SET.log                          the pooled ratios at 40-85 % explored (by_coverage.py)
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -12,6 +13,7 @@ for SET in val test; do
   keep /work/runs/stop85_$SET $HERE/runs/$SET
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
+  $PY $HERE/by_coverage.py $HERE/runs/$SET --coverages 0.4 0.5 0.6 0.7 0.8 0.85 > $HERE/by_coverage_$SET.log
   rm -rf $HERE/runs/${SET}_reached
   $PY $HERE/reached.py $HERE/runs/$SET --out $HERE/runs/${SET}_reached > $HERE/reached_$SET.log
   [ -d $HERE/runs/${SET}_reached ] || continue
