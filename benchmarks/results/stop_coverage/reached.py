@@ -15,10 +15,7 @@ import json
 import shutil
 from pathlib import Path
 
-
-def trials_of(folder: Path) -> list[dict]:
-    """The trial records of one building folder (a line each)."""
-    return [json.loads(line) for line in (folder / "trials.jsonl").read_text().splitlines() if line.strip()]
+from explore_rl.comparison import read_trials
 
 
 def reached(trials: list[dict], policy: str, target: float) -> bool | None:
@@ -42,7 +39,7 @@ def main(argv: list[str] | None = None) -> None:
     counts = {policy: 0 for policy in args.policies}
     kept = 0
     for folder in folders:
-        trials = trials_of(folder)
+        trials = read_trials(folder / "trials.jsonl")
         flags = {policy: reached(trials, policy, args.target) for policy in args.policies}
         for policy, flag in flags.items():
             counts[policy] += bool(flag)
