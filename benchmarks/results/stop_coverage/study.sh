@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# plan.md: keep run.sh's finished buildings in runs/SET (val: /work/runs/stop85_val, test: /work/runs/stop85_test),
+# plan.md: keep run.sh's finished buildings in runs/SET (val: /work/runs/stop85_val, test: /work/runs/stop85_test,
+# prior_val: the loop prior's trials with EM's of runs/val),
 # then study_zero_shot.py (the learned trials against EM's of the same run, paired by building):
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
 #   reached_SET.log                              how many buildings each policy brought to 85 %
@@ -9,7 +10,15 @@ set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 STUDY="$PY $RESULTS/../study_zero_shot.py"
-for SET in val test; do
+# the loop prior's learned-only trials (plan.md's addendum), each building joined with EM's trial of runs/val
+for d in /work/runs/stop85_prior_val/building_*/; do
+  [ -e $d/trials.jsonl ] || continue
+  b=$(basename $d); mkdir -p $HERE/runs/prior_val/$b
+  cat $d/trials.jsonl > $HERE/runs/prior_val/$b/trials.jsonl
+  grep '"policy": "em"' $HERE/runs/val/$b/trials.jsonl >> $HERE/runs/prior_val/$b/trials.jsonl
+  cp $d/summary.md $HERE/runs/prior_val/$b/
+done
+for SET in val test prior_val; do
   keep /work/runs/stop85_$SET $HERE/runs/$SET
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
