@@ -19,7 +19,7 @@ for d in /work/runs/stop85_prior_val/building_*/; do
   cp $d/summary.md $HERE/runs/prior_val/$b/
 done
 for SET in val test prior_val; do
-  keep /work/runs/stop85_$SET $HERE/runs/$SET
+  [ $SET = prior_val ] || keep /work/runs/stop85_$SET $HERE/runs/$SET  # prior_val: joined above
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
   $PY $HERE/by_coverage.py $HERE/runs/$SET --coverages 0.4 0.5 0.6 0.7 0.8 0.85 > $HERE/by_coverage_$SET.log
