@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # plan.md: keep run.sh's finished buildings in runs/SET (val: /work/runs/stop85_val, test: /work/runs/stop85_test,
-# prior_val: the loop prior's trials with EM's of runs/val),
+# prior_val: the loop prior's trials with EM's of runs/val; SETS="test": only those sets, the others' logs kept),
 # then study_zero_shot.py (the learned trials against EM's of the same run, paired by building):
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
 #   reached_SET.log                              how many buildings each policy brought to 85 %
@@ -18,7 +18,7 @@ for d in /work/runs/stop85_prior_val/building_*/; do
   grep '"policy": "em"' $HERE/runs/val/$b/trials.jsonl >> $HERE/runs/prior_val/$b/trials.jsonl
   cp $d/summary.md $HERE/runs/prior_val/$b/
 done
-for SET in val test prior_val; do
+for SET in ${SETS:-val test prior_val}; do
   [ $SET = prior_val ] || keep /work/runs/stop85_$SET $HERE/runs/$SET  # prior_val: joined above
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
