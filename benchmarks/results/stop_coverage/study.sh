@@ -1,25 +1,45 @@
 #!/usr/bin/env bash
-# plan.md: keep run.sh's finished buildings in runs/SET (val: /work/runs/stop85_val, test: /work/runs/stop85_test,
-# prior_val: the loop prior's trials with EM's of runs/val; SETS="test": only those sets, the others' logs kept),
-# then study_zero_shot.py (the learned trials against EM's of the same run, paired by building):
+# plan.md: keep run.sh's finished buildings in runs/SET (val: /work/runs/stop85_val, test: /work/runs/stop85_test;
+# prior[_B]_val / prior_B_test: the loop prior's learned-only trials of /work/runs/stop85_SET, each building joined
+# with EM's trial of runs/val or runs/test; SETS="test": only those sets, the others' logs kept), then
+# study_zero_shot.py (the learned trials against EM's, paired by building):
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
 #   reached_SET.log                              how many buildings each policy brought to 85 %
 #   study_SET_reached.log / targets_SET_reached  only the buildings both policies brought to 85 %
 #   by_coverage_SET.log                          the pooled ratios at 40-85 % explored (by_coverage.py)
+# Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 STUDY="$PY $RESULTS/../study_zero_shot.py"
-# the loop prior's learned-only trials (plan.md's addendum), each building joined with EM's trial of runs/val
-for d in /work/runs/stop85_prior_val/building_*/; do
-  [ -e $d/trials.jsonl ] || continue
-  b=$(basename $d); mkdir -p $HERE/runs/prior_val/$b
-  cat $d/trials.jsonl > $HERE/runs/prior_val/$b/trials.jsonl
-  grep '"policy": "em"' $HERE/runs/val/$b/trials.jsonl >> $HERE/runs/prior_val/$b/trials.jsonl
-  cp $d/summary.md $HERE/runs/prior_val/$b/
-done
-for SET in ${SETS:-val test prior_val}; do
-  [ $SET = prior_val ] || keep /work/runs/stop85_$SET $HERE/runs/$SET  # prior_val: joined above
+# join_prior SET: the loop prior's learned-only trials of /work/runs/stop85_SET (plan.md's addenda), each building
+# joined with EM's trial of runs/val or runs/test (the same config)
+join_prior() {
+  for d in /work/runs/stop85_$1/building_*/; do
+    [ -e $d/trials.jsonl ] || continue
+    b=$(basename $d); mkdir -p $HERE/runs/$1/$b
+    cat $d/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
+    grep '"policy": "em"' $HERE/runs/${1##*_}/$b/trials.jsonl >> $HERE/runs/$1/$b/trials.jsonl
+    cp $d/summary.md $HERE/runs/$1/$b/
+  done
+}
+# street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), compared trial by trial
+street_garage() {
+  for scene in /work/runs/stop85_street_garage/*/; do
+    [ -e $scene/trials.jsonl ] || continue  # not finished (yet)
+    mkdir -p $HERE/runs/street_garage/$(basename $scene)
+    cp $scene/trials.jsonl $scene/summary.md $HERE/runs/street_garage/$(basename $scene)/
+  done
+  [ -d $HERE/runs/street_garage ] || return 0
+  $STUDY $HERE/runs/street_garage --out $HERE/targets_street_garage > $HERE/study_street_garage.log
+}
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_test 2>/dev/null | sed 's/^stop85_//' || true)
+for SET in ${SETS:-val test $PRIORS street_garage}; do
+  case $SET in
+    street_garage) street_garage; continue;;
+    prior*) join_prior $SET;;
+    *) keep /work/runs/stop85_$SET $HERE/runs/$SET;;
+  esac
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
   $PY $HERE/by_coverage.py $HERE/runs/$SET --coverages 0.4 0.5 0.6 0.7 0.8 0.85 > $HERE/by_coverage_$SET.log
