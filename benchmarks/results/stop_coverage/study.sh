@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# plan.md: keep run.sh's finished buildings in runs/SET (val: /work/runs/stop85_val, test: /work/runs/stop85_test;
+# plan.md: keep run.sh's finished buildings in runs/SET (val, val2, test: /work/runs/stop85_SET;
 # prior[_B]_val / prior_B_test: the loop prior's learned-only trials of /work/runs/stop85_SET, each building joined
 # with EM's trial of runs/val or runs/test; SETS="test": only those sets, the others' logs kept), then
 # study_zero_shot.py (the learned trials against EM's, paired by building):
@@ -34,7 +34,7 @@ street_garage() {
   $STUDY $HERE/runs/street_garage --out $HERE/targets_street_garage > $HERE/study_street_garage.log
 }
 PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_test 2>/dev/null | sed 's/^stop85_//' || true)
-for SET in ${SETS:-val test $PRIORS street_garage}; do
+for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   case $SET in
     street_garage) street_garage; continue;;
     prior*) join_prior $SET;;
