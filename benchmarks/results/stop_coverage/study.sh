@@ -7,11 +7,14 @@
 #   reached_SET.log                              how many buildings each policy brought to 85 %
 #   study_SET_reached.log / targets_SET_reached  only the buildings both policies brought to 85 %
 #   by_coverage_SET.log                          the pooled ratios at 40-85 % explored (by_coverage.py)
+# and, once val2 has buildings, the 90-building validation pool 1010-1099 (runs/val and runs/val2): study_val90.log,
+# by_coverage_val90.log (plan.md, session 52 step C).
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 STUDY="$PY $RESULTS/../study_zero_shot.py"
+COVERAGES="0.4 0.5 0.6 0.7 0.8 0.85"
 # join_prior SET: the loop prior's learned-only trials of /work/runs/stop85_SET (plan.md's addenda), each building
 # joined with EM's trial of runs/val or runs/test (the same config)
 join_prior() {
@@ -23,15 +26,20 @@ join_prior() {
     cp $d/summary.md $HERE/runs/$1/$b/
   done
 }
-# street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), compared trial by trial
+# street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), EM and the learned policy compared
+# trial by trial (study_street_garage.log); with the baselines' run (step D) one table of all four policies
+# (runs/street_garage/summary.md, by explore_rl.comparison.combine)
 street_garage() {
   for scene in /work/runs/stop85_street_garage/*/; do
     [ -e $scene/trials.jsonl ] || continue  # not finished (yet)
-    mkdir -p $HERE/runs/street_garage/$(basename $scene)
-    cp $scene/trials.jsonl $scene/summary.md $HERE/runs/street_garage/$(basename $scene)/
+    name=$(basename $scene); mkdir -p $HERE/runs/street_garage/$name
+    cat $scene/trials.jsonl /work/runs/stop85_street_garage_baselines/$name/trials.jsonl 2>/dev/null \
+      > $HERE/runs/street_garage/$name/trials.jsonl || true
+    cp $scene/summary.md $HERE/runs/street_garage/$name/
   done
   [ -d $HERE/runs/street_garage ] || return 0
   $STUDY $HERE/runs/street_garage --out $HERE/targets_street_garage > $HERE/study_street_garage.log
+  $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/street_garage')"
 }
 PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
@@ -42,9 +50,13 @@ for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   esac
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
-  $PY $HERE/by_coverage.py $HERE/runs/$SET --coverages 0.4 0.5 0.6 0.7 0.8 0.85 > $HERE/by_coverage_$SET.log
+  $PY $HERE/by_coverage.py $HERE/runs/$SET --coverages $COVERAGES > $HERE/by_coverage_$SET.log
   rm -rf $HERE/runs/${SET}_reached
   $PY $HERE/reached.py $HERE/runs/$SET --out $HERE/runs/${SET}_reached > $HERE/reached_$SET.log
   [ -d $HERE/runs/${SET}_reached ] || continue
   $STUDY $HERE/runs/${SET}_reached --pool ${SET}_reached --out $HERE/targets_${SET}_reached > $HERE/study_${SET}_reached.log
 done
+if [ -z "$SETS" ] && [ -d $HERE/runs/val2 ]; then
+  $STUDY $HERE/runs/val $HERE/runs/val2 --pool val90 --out $HERE/targets_val90 > $HERE/study_val90.log
+  $PY $HERE/by_coverage.py $HERE/runs/val $HERE/runs/val2 --coverages $COVERAGES > $HERE/by_coverage_val90.log
+fi
