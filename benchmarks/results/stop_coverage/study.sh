@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # plan.md: keep run.sh's finished buildings in runs/SET (val, val2, test: /work/runs/stop85_SET;
-# prior[_B]_val / prior_B_test: the loop prior's learned-only trials of /work/runs/stop85_SET, each building joined
-# with EM's trial of runs/val or runs/test; SETS="test": only those sets, the others' logs kept), then
+# prior[_B]_val, prior_B_test, prior_X_val90: the loop prior's learned-only trials of /work/runs/stop85_SET, each
+# building joined with EM's trial of runs/val, val2 or test; SETS="test": only those sets, the others' logs kept), then
 # study_zero_shot.py (the learned trials against EM's, paired by building):
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
 #   reached_SET.log                              how many buildings each policy brought to 85 %
@@ -16,14 +16,19 @@ source $HERE/../keep.sh
 STUDY="$PY $RESULTS/../study_zero_shot.py"
 COVERAGES="0.4 0.5 0.6 0.7 0.8 0.85"
 # join_prior SET: the loop prior's learned-only trials of /work/runs/stop85_SET (plan.md's addenda), each building
-# joined with EM's trial of runs/val or runs/test (the same config)
+# joined with EM's trial of runs/val, runs/val2 or runs/test (the same config; SET ..._val90: val and val2)
 join_prior() {
+  case $1 in *_val90) em_sets="val val2";; *) em_sets=${1##*_};; esac
   for d in /work/runs/stop85_$1/building_*/; do
     [ -e $d/trials.jsonl ] || continue
-    b=$(basename $d); mkdir -p $HERE/runs/$1/$b
-    cat $d/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
-    grep '"policy": "em"' $HERE/runs/${1##*_}/$b/trials.jsonl >> $HERE/runs/$1/$b/trials.jsonl
-    cp $d/summary.md $HERE/runs/$1/$b/
+    b=$(basename $d)
+    for em in $em_sets; do
+      if [ -e $HERE/runs/$em/$b/trials.jsonl ]; then  # a building EM has not finished is left out
+        mkdir -p $HERE/runs/$1/$b && cp $d/summary.md $HERE/runs/$1/$b/
+        cat $d/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
+        grep '"policy": "em"' $HERE/runs/$em/$b/trials.jsonl >> $HERE/runs/$1/$b/trials.jsonl
+      fi
+    done
   done
 }
 # street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), EM and the learned policy compared
@@ -41,7 +46,7 @@ street_garage() {
   $STUDY $HERE/runs/street_garage --out $HERE/targets_street_garage > $HERE/study_street_garage.log
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/street_garage')"
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_test 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   case $SET in
     street_garage) street_garage; continue;;
