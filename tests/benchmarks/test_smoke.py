@@ -7,6 +7,7 @@ They check that the scripts run, not their figures. Outputs go to ``tmp_path``.
 from __future__ import annotations
 
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -90,6 +91,20 @@ def test_every_script_has_a_smoke_test() -> None:
     tests = " ".join(p.read_text() for p in here.glob("test_*.py"))
     missing = sorted(name for name in scripts if not re.search(rf"\b{name}\b", tests))
     assert not missing, f"scripts without a smoke test in tests/benchmarks/: {missing}"
+
+
+def test_every_shell_driver_parses() -> None:
+    """The study drivers (``benchmarks/**/*.sh``, ``scripts/**/*.sh``) run for hours in the background: ``bash -n``
+    finds a syntax error before a run does, hours in."""
+    root = Path(__file__).resolve().parents[2]
+    drivers = sorted(root.glob("benchmarks/**/*.sh")) + sorted(root.glob("scripts/**/*.sh"))
+    assert len(drivers) > 10, f"expected the study drivers under benchmarks/, found {len(drivers)}"
+    broken = {}
+    for driver in drivers:
+        result = subprocess.run(["bash", "-n", str(driver)], capture_output=True, text=True)
+        if result.returncode:
+            broken[str(driver.relative_to(root))] = result.stderr.strip()
+    assert not broken, f"shell drivers that do not parse: {broken}"
 
 
 def test_calibrate_loop_closures_writes_a_fit_the_model_loads_with_its_spacing(tmp_path: Path) -> None:
