@@ -1,10 +1,14 @@
 """stop_coverage/reached.py: the buildings where every policy reached the stop coverage are copied, the others
 not; the counts per policy. by_coverage.py: the pooled ratios at each coverage over the buildings both reached,
-against ratios built into made-up explorations. Bad arguments refused in one line."""
+against ratios built into made-up explorations. phases.py: the learned / EM ratios of metres per decision, loop
+closures per metre and open frontiers in each coverage band, against ratios built in. Bad arguments refused in one
+line."""
 
 from __future__ import annotations
 
 import json
+
+import numpy as np
 
 from tests.benchmarks.smoke import run_main
 
@@ -76,3 +80,43 @@ def test_by_coverage_pools_the_buildings_that_reached_each_coverage(tmp_path, ca
     assert code == 2 and "--coverages 85.0" in err
     code, _, err = run_main(BY_COVERAGE, [str(tmp_path / "nothing")], capsys)
     assert code == 2 and "no building_SEED/trials.jsonl" in err
+
+
+PHASES = "benchmarks/results/stop_coverage/phases.py"
+
+
+def phased_exploration(policy: str, metres: list[float], closures: list[int], frontiers: list[int]) -> dict:
+    """A trial exploring 10 % per decision: decision i drives ``metres[i]``, closes ``closures[i]`` loops and chose
+    among ``frontiers[i]`` frontiers."""
+    travel = np.cumsum(metres)
+    closed = np.cumsum(closures)
+    rows = [{"decision": i, "travel_m": float(travel[i]), "explored": 0.1 * (i + 1),
+             "loop_closures": int(closed[i]), "candidates": frontiers[i]} for i in range(len(metres))]
+    return {"scene": "b", "policy": policy, "rows": rows}
+
+
+def test_phases_recovers_the_ratios_built_into_each_band(tmp_path, capsys):
+    # decision i is taken at 10 i % explored: decisions 0-3 fall in the band [0, 0.35), 4-7 in the last band
+    for seed in (1, 2, 3):
+        folder = tmp_path / "test" / f"building_{seed}"
+        folder.mkdir(parents=True)
+        em = phased_exploration("em", [10.0] * 8, [4] * 8, [10] * 8)
+        # learned: half the metres per decision and 1.5x the open frontiers before 40 %, then EM's; its closures per
+        # metre are EM's in the first band (2 per 5 m) and half EM's after (2 per 10 m)
+        learned = phased_exploration("learned", [5.0] * 4 + [10.0] * 4, [2] * 8, [15] * 4 + [10] * 4)
+        folder.joinpath("trials.jsonl").write_text("".join(json.dumps(t) + "\n" for t in (learned, em)))
+    code, out, _ = run_main(PHASES, [str(tmp_path / "test"), "--bands", "0", "0.35", "--resamples", "50"], capsys)
+    early, late = [json.loads(line) for line in out.strip().splitlines()]
+    assert code == 0 and early["band"] == [0.0, 0.35] and early["buildings"] == 3
+    assert abs(early["metres_per_decision"]["ratio"] - 0.5) < 1e-6
+    assert abs(early["open_frontiers"]["ratio"] - 1.5) < 1e-6
+    assert abs(early["closures_per_m"]["ratio"] - 1.0) < 1e-6
+    assert abs(late["metres_per_decision"]["ratio"] - 1.0) < 1e-6 and abs(late["closures_per_m"]["ratio"] - 0.5) < 1e-6
+    assert early["em"]["metres_per_decision"] == 10.0 and early["learned"]["open_frontiers"] == 15.0
+
+
+def test_phases_refuses_bad_arguments_in_one_line(tmp_path, capsys):
+    code, _, err = run_main(PHASES, [str(tmp_path)], capsys)
+    assert code == 2 and "no building_SEED/trials.jsonl" in err
+    code, _, err = run_main(PHASES, [str(tmp_path), "--bands", "0.5", "0.3"], capsys)
+    assert code == 2 and "--bands 0.5 0.3" in err
