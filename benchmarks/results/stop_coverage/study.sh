@@ -7,6 +7,7 @@
 #   reached_SET.log                              how many buildings each policy brought to 85 %
 #   study_SET_reached.log / targets_SET_reached  only the buildings both policies brought to 85 %
 #   by_coverage_SET.log                          the pooled ratios at 40-85 % explored (by_coverage.py)
+#   phases_SET.log                               how each policy explores per coverage band (phases.py)
 # and, once val2 has buildings, the 90-building validation pool 1010-1099 (runs/val and runs/val2): study_val90.log,
 # by_coverage_val90.log (plan.md, session 52 step C).
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
@@ -56,6 +57,7 @@ for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
   $PY $HERE/by_coverage.py $HERE/runs/$SET --coverages $COVERAGES > $HERE/by_coverage_$SET.log
+  $PY $HERE/phases.py $HERE/runs/$SET > $HERE/phases_$SET.log
   rm -rf $HERE/runs/${SET}_reached
   $PY $HERE/reached.py $HERE/runs/$SET --out $HERE/runs/${SET}_reached > $HERE/reached_$SET.log
   [ -d $HERE/runs/${SET}_reached ] || continue
