@@ -9,7 +9,7 @@
 #   by_coverage_SET.log                          the pooled ratios at 40-85 % explored (by_coverage.py)
 #   phases_SET.log                               how each policy explores per coverage band (phases.py)
 # and, once val2 has buildings, the 90-building validation pool 1010-1099 (runs/val and runs/val2): study_val90.log,
-# by_coverage_val90.log (plan.md, session 52 step C).
+# by_coverage_val90.log, phases_val90.log (plan.md, session 52 step C).
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -66,4 +66,5 @@ done
 if [ -z "$SETS" ] && [ -d $HERE/runs/val2 ]; then
   $STUDY $HERE/runs/val $HERE/runs/val2 --pool val90 --out $HERE/targets_val90 > $HERE/study_val90.log
   $PY $HERE/by_coverage.py $HERE/runs/val $HERE/runs/val2 --coverages $COVERAGES > $HERE/by_coverage_val90.log
+  $PY $HERE/phases.py $HERE/runs/val $HERE/runs/val2 > $HERE/phases_val90.log
 fi
