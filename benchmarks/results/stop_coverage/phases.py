@@ -42,10 +42,10 @@ def band_totals(run: dict, low: float, high: float) -> dict | None:
             "open_frontiers": frontiers / n}
 
 
-def building_ratios(runs: list[dict], low: float, high: float, policy: str, reference: str) -> dict | None:
-    """The policy / reference ratio of each quantity in one building's band (NaN where it is not defined)."""
-    by_policy = {run["policy"]: band_totals(run, low, high) for run in runs}
-    mine, theirs = by_policy.get(policy), by_policy.get(reference)
+def building_ratios(totals: dict[str, dict | None], policy: str, reference: str) -> dict | None:
+    """The policy / reference ratio of each quantity in one building's band (NaN where it is not defined);
+    ``totals``: each policy's :func:`band_totals` in that building."""
+    mine, theirs = totals.get(policy), totals.get(reference)
     if mine is None or theirs is None:
         return None
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -68,12 +68,12 @@ def pooled(values: list[float], resamples: int, seed: int = 0) -> dict:
 def band_row(buildings: list[list[dict]], low: float, high: float, policy: str, reference: str,
              resamples: int) -> dict:
     """One band: each policy's mean quantities over the buildings and the pooled ratios."""
-    ratios = [r for r in (building_ratios(runs, low, high, policy, reference) for runs in buildings) if r]
+    totals = [{run["policy"]: band_totals(run, low, high) for run in runs} for runs in buildings]
+    ratios = [r for r in (building_ratios(t, policy, reference) for t in totals) if r]
     means = {}
     for name in (policy, reference):
-        totals = [t for runs in buildings for run in runs if run["policy"] == name
-                  for t in [band_totals(run, low, high)] if t]
-        means[name] = {key: round(float(np.nanmean([t[key] for t in totals])), 3) if totals else float("nan")
+        present = [t[name] for t in totals if t.get(name)]
+        means[name] = {key: round(float(np.nanmean([t[key] for t in present])), 3) if present else float("nan")
                        for key in QUANTITIES}
     return {"band": [low, high], "buildings": len(ratios), **means,
             **{key: pooled([r[key] for r in ratios], resamples) for key in QUANTITIES}}
