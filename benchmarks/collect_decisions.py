@@ -69,7 +69,29 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         parser.error(f"--layouts {args.layouts[0]} {args.layouts[1]}: STOP must be > FIRST")
     if args.actor is not None and not Path(args.actor).is_file():
         parser.error(f"--actor {args.actor}: no such file")
+    if args.actor is not None:
+        problem = actor_reads_stored(args.actor, args.features)
+        if problem:
+            parser.error(problem)
     return args
+
+
+def actor_reads_stored(actor_path: str, stored: str) -> str:
+    """'' if the actor's node features are the leading columns of ``--features`` (feature sets
+    nest: paper, extended, loops), so the actor in the loop reads what is stored; else why not."""
+    from explore_rl.graph.features import feature_names
+    from explore_rl.models.actor_file import read_actor_file
+
+    actor_file = read_actor_file(actor_path)
+    reads = list(actor_file.features)
+    try:
+        columns = list(feature_names(stored))
+    except ValueError as error:
+        return f"--features: {error}"
+    if columns[:len(reads)] != reads:
+        return (f"--features {stored}: the actor {actor_path} reads {actor_file.feature_set}, "
+                f"which is not the first columns of {stored}; store a set that holds it")
+    return ""
 
 
 def collection_config(args: argparse.Namespace) -> Config:
@@ -93,12 +115,13 @@ def make_chooser(actor_path: str | None, sample: bool, seed: int):
     from explore_rl.models.actor_file import load_actor
     from explore_rl.models.actor_critic import greedy_row
 
-    actor, _ = load_actor(actor_path)
+    actor, actor_file = load_actor(actor_path)
+    reads = actor_file.n_features  # the leading columns of the stored set (actor_reads_stored)
     generator = torch.Generator().manual_seed(seed)
 
     def choose(td) -> int:
         with torch.no_grad():
-            logits = actor(td["x"], td["adj"], td["node_mask"])
+            logits = actor(td["x"][..., :reads], td["adj"], td["node_mask"])
         if not sample:
             return greedy_row(logits, td["action_mask"])
         probs = torch.softmax(logits.masked_fill(~td["action_mask"], -torch.inf), -1)

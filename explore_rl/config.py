@@ -148,6 +148,7 @@ def validate(config: Config) -> None:
         raise ValueError(f"policy.name={config.policy.name!r}: choose policy=nearest, random, em or learned")
     checks.non_negative("policy.revisit_bias", config.policy.revisit_bias)
     checks.non_negative("policy.loop_bias", config.policy.loop_bias)
+    checks.non_negative("policy.loop_bias_until_m", config.policy.loop_bias_until_m)
     checks.at_least("policy.em_top_k", config.policy.em_top_k, 0)
     config.env.validate()
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:

@@ -122,6 +122,10 @@ class PolicyConfig:
     keyframe its path revisits) -- a decision-time prior towards closing long loops, not
     learned, whatever node features the actor reads; 0 is the actor alone.
 
+    ``loop_bias_until_m`` (learned only): if > 0, ``loop_bias`` applies only while the robot has
+    travelled less than this many metres -- the prior in the opening phase of an exploration,
+    where the map-error gap to EM is made, without its detours later; 0: at every decision.
+
     ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
     probable frontiers (after the priors) by its utility -- a hybrid, not the learned
     policy alone, that costs about what EM costs (EM's decision context dominates); a
@@ -131,4 +135,5 @@ class PolicyConfig:
     checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"
     revisit_bias: float = 0.0
     loop_bias: float = 0.0
+    loop_bias_until_m: float = 0.0
     em_top_k: int = 0

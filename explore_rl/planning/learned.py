@@ -471,7 +471,8 @@ class LearnedPolicy:
         encoded = encode(graph, self.max_nodes, compact=not self.reference)
         after_graph = time.perf_counter()
         logits = actor_logits(self.actor, encoded)
-        biased, action_mask = self.biased(logits, graph, encoded, actions), torch.from_numpy(encoded.action_mask)
+        biased = self.biased(logits, graph, encoded, actions, state.travel)
+        action_mask = torch.from_numpy(encoded.action_mask)
         after_forward = time.perf_counter()
         self.last_graph, self.last_encoded, self.last_logits = graph, encoded, logits
         self.last_evaluation = None
@@ -496,11 +497,15 @@ class LearnedPolicy:
         return self._em
 
     def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
-               actions: list[Action]) -> torch.Tensor:
+               actions: list[Action], travel: float = 0.0) -> torch.Tensor:
         """The logits the greedy choice reads: the actor's, plus ``policy.revisit_bias`` per
         keyframe a frontier's path revisits and ``policy.loop_bias`` per metre of its
-        ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's)."""
+        ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's);
+        the second only before ``policy.loop_bias_until_m`` metres of ``travel``, if that is set."""
         revisit_bias, loop_bias = float(self.config.revisit_bias), float(self.config.loop_bias)
+        until = float(self.config.loop_bias_until_m)
+        if until > 0 and travel >= until:
+            loop_bias = 0.0
         if revisit_bias:
             logits = logits + revisit_bias * torch.from_numpy(revisit_counts(graph, encoded, actions))
         if loop_bias:

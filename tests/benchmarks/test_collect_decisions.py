@@ -36,3 +36,26 @@ def test_an_actor_in_the_loop_picks_its_most_probable_frontier(tmp_path):
     assert make_chooser(str(path), sample=False, seed=0)(td) == expected
     sampled = make_chooser(str(path), sample=True, seed=0)
     assert all(bool(td["action_mask"][sampled(td)]) for _ in range(20))
+
+
+def test_an_actor_reads_the_leading_columns_of_a_larger_stored_set(tmp_path):
+    import torch
+
+    from explore_rl.config import load_config
+    from explore_rl.models.actor_file import load_actor
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    script = load_script("benchmarks/collect_decisions.py")
+    path, _ = actor_file(tmp_path, load_config([*TINY_MODEL, "graph.features=extended"]))
+    assert script.actor_reads_stored(str(path), "loops") == ""
+    assert "--features paper" in script.actor_reads_stored(str(path), "paper")
+    torch.manual_seed(1)
+    n = 6
+    adj = torch.ones(n, n) - torch.eye(n)
+    mask = torch.tensor([False, True, True, True, False, True])
+    td = {"x": torch.rand(n, 11), "adj": adj, "node_mask": torch.ones(n, dtype=torch.bool), "action_mask": mask}
+    actor, _ = load_actor(path)
+    with torch.no_grad():
+        logits = actor(td["x"][:, :10], adj, td["node_mask"])
+    expected = int(torch.nonzero(mask).flatten()[logits[mask].argmax()])
+    assert script.make_chooser(str(path), sample=False, seed=0)(td) == expected

@@ -165,6 +165,35 @@ def test_a_prior_adds_its_node_feature_to_the_logits(tmp_path, key):
     assert "\n" not in str(error.value)
 
 
+def test_the_loop_prior_stops_after_its_travel(tmp_path):
+    """``policy.loop_bias_until_m``: on a state where the loop prior changes the choice, a gate above the robot's
+    travel so far gives the prior's choice, a gate at it the actor's (its logits kept either way); a negative
+    value is refused in one line naming the key."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+
+    def policy(**priors) -> LearnedPolicy:
+        return LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), **priors), config.planning,
+                             graph=config.graph)
+
+    alone, always = policy(), policy(loop_bias=1e6)
+    informative = 0  # states where the prior changes the choice
+    for decision, _ in env_decisions(config, learner, steps=6):
+        state = decision.state
+        if state.travel <= 0 or always.choose(state) == alone.choose(state):  # a gate of 0 m means no gate
+            continue
+        informative += 1
+        before = policy(loop_bias=1e6, loop_bias_until_m=state.travel + 0.5)
+        after = policy(loop_bias=1e6, loop_bias_until_m=state.travel)
+        assert before.choose(state) == always.last_choice
+        assert after.choose(state) == alone.last_choice
+        np.testing.assert_array_equal(before.last_logits, alone.last_logits)
+    assert informative > 0
+    with pytest.raises(ValueError, match="policy.loop_bias_until_m") as error:
+        load_config([*FAST, "policy.loop_bias_until_m=-1"])
+    assert "\n" not in str(error.value)
+
+
 def test_em_decides_among_the_actors_shortlist(tmp_path):
     """``policy.em_top_k``: the shortlist is the actor's k most probable frontiers; EM's utilities
     of it equal EM's own evaluation of those frontiers (all of them, on the same state) and the
