@@ -53,11 +53,12 @@ class Decisions:
     layouts: np.ndarray | None = None
 
 
-def scored(actor: str, dataset: DecisionDataset) -> Decisions:
-    """The actor of ``actor`` (its own model and node features) on every decision of ``dataset``."""
+def scored(actor: str, dataset: DecisionDataset, prior: str = LOOP) -> Decisions:
+    """The actor of ``actor`` (its own model and node features) on every decision of ``dataset``; the prior's
+    column (``loops``) is ``prior``, ``loop_length`` unless another per-frontier column is probed."""
     learner = greedy_learner(actor)
     names = list(feature_names(learner.config.graph.features))
-    columns = dataset.columns_for(names + [LOOP]) if LOOP not in names else dataset.columns_for(names)
+    columns = dataset.columns_for(names + [prior]) if prior not in names else dataset.columns_for(names)
     out = Decisions(layouts=dataset.rows()["layout"].numpy())
     with torch.no_grad():
         for chunk in torch.arange(len(dataset)).split(CHUNK):
@@ -67,7 +68,7 @@ def scored(actor: str, dataset: DecisionDataset) -> Decisions:
             own["x"] = x[..., :len(names)]
             out.logits.append(learner.actor.get_dist(own).logits.masked_fill(~mask, -torch.inf))
             out.rewards.append(batch[ACTION_REWARDS].masked_fill(~mask, 0.0))
-            out.loops.append(x[..., names.index(LOOP) if LOOP in names else len(names)])
+            out.loops.append(x[..., names.index(prior) if prior in names else len(names)])
             out.revisits.append(x[..., names.index("revisits")])
     return out
 
