@@ -123,8 +123,8 @@ class PolicyConfig:
     learned, whatever node features the actor reads; 0 is the actor alone.
 
     ``loop_bias_until_m`` (learned only): if > 0, ``loop_bias`` applies only while the robot has
-    travelled less than this many metres -- the prior in the opening phase of an exploration,
-    where the map-error gap to EM is made, without its detours later; 0: at every decision.
+    travelled less than this many metres (its own odometry) -- the prior in the opening phase of
+    an exploration, without its detours later; 0: at every decision.
 
     ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
     probable frontiers (after the priors) by its utility -- a hybrid, not the learned

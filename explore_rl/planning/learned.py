@@ -497,7 +497,7 @@ class LearnedPolicy:
         return self._em
 
     def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
-               actions: list[Action], travel: float = 0.0) -> torch.Tensor:
+               actions: list[Action], travel: float) -> torch.Tensor:
         """The logits the greedy choice reads: the actor's, plus ``policy.revisit_bias`` per
         keyframe a frontier's path revisits and ``policy.loop_bias`` per metre of its
         ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's);
