@@ -14,6 +14,20 @@ from tests.benchmarks.test_selection_v6 import revisit_dataset
 SCRIPT = "benchmarks/results/loop_bias/calibrate.py"
 
 
+def run_on_loops_dataset(runner, tmp_path, *args: str):
+    """``runner`` (a script_runner) on a made-up dataset of the loops set and a tiny extended-set actor, made here;
+    returns the decisions, EM's best rows, the script's JSON rows and its summary (the last line)."""
+    from explore_rl.config import load_config
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    decisions, best = revisit_dataset(tmp_path / "data", features="loops")
+    actor, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
+    result = runner("--dataset", str(tmp_path / "data"), "--actor", str(actor), *args)
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
+    return decisions, best, lines[:-1], lines[-1]
+
+
 @pytest.fixture
 def calibrate(capsys):
     return script_runner(SCRIPT, capsys)
@@ -23,16 +37,9 @@ def test_calibrate_scores_the_biased_choice_and_picks_the_best_bias(tmp_path, ca
     """With a bias far above the logits' spread the choice is each decision's longest loop (computed here);
     EM's side is its best-rewarded frontier's; each row's gap closed is the pooled gain of its choice (here,
     for the largest bias); the calibrated bias is the row of the largest gap closed, row 0 the actor alone."""
-    from explore_rl.config import load_config
     from explore_rl.graph.features import feature_names
-    from tests.policy_files import TINY_MODEL, actor_file
 
-    decisions, best = revisit_dataset(tmp_path / "data", features="loops")
-    actor, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
-    result = calibrate("--dataset", str(tmp_path / "data"), "--actor", str(actor), "--step", "500", "--top", "1000")
-    assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
-    rows, summary = lines[:-1], lines[-1]
+    decisions, best, rows, summary = run_on_loops_dataset(calibrate, tmp_path, "--step", "500", "--top", "1000")
     assert [row["loop_bias"] for row in rows] == [0.0, 500.0, 1000.0]
     column = feature_names("loops").index("loop_length")
     loops = [d["x"][:, column][d["action_mask"]].numpy() for d in decisions]

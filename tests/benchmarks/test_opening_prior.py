@@ -4,12 +4,11 @@ the logits' spread), the actor alone is the same on every row, bad arguments ref
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
 from tests.benchmarks.smoke import script_runner
+from tests.benchmarks.test_loop_bias import run_on_loops_dataset
 from tests.benchmarks.test_selection_v6 import revisit_dataset
 
 SCRIPT = "benchmarks/results/opening_prior/probe.py"
@@ -21,16 +20,9 @@ def probe(capsys):
 
 
 def test_each_column_as_a_prior_scores_its_largest_or_smallest_value(tmp_path, probe):
-    from explore_rl.config import load_config
     from explore_rl.graph.features import FRONTIER_EXTRAS, LOOP_EXTRAS, feature_names
-    from tests.policy_files import TINY_MODEL, actor_file
 
-    decisions, best = revisit_dataset(tmp_path / "data", features="loops")
-    actor, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
-    result = probe("--dataset", str(tmp_path / "data"), "--actor", str(actor), "--step", "1000", "--top", "1000")
-    assert result.returncode == 0, result.stderr
-    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]  # torchrl logs too
-    rows, summary = lines[:-1], lines[-1]
+    decisions, best, rows, summary = run_on_loops_dataset(probe, tmp_path, "--step", "1000", "--top", "1000")
     columns = FRONTIER_EXTRAS + LOOP_EXTRAS
     assert [(row["column"], row["sign"]) for row in rows] == [(c, s) for c in columns for s in (1.0, -1.0)]
     assert len({(row["alone_gap_closed"], row["alone_same_choice"]) for row in rows}) == 1
