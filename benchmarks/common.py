@@ -8,6 +8,7 @@ import json
 import os
 import platform
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
@@ -76,6 +77,14 @@ def bias_grid(parser: argparse.ArgumentParser, args: argparse.Namespace) -> np.n
     if not args.step > 0 or not args.top >= 0:
         parser.error(f"--step {args.step} --top {args.top}: give a step > 0 and a top >= 0")
     return np.round(np.arange(0.0, args.top + args.step / 2, args.step), 9)
+
+
+def output_dir(out: str | Path | None, default: Path, trial: bool, name: str) -> Path:
+    """Where a script writes: ``out`` if given; a new temporary folder for a ``--quick`` or ``--smoke`` run
+    (``trial``), so a trial run never overwrites the committed results; else ``default``."""
+    if out is not None:
+        return Path(out)
+    return Path(tempfile.mkdtemp(prefix=f"{name}_trial_")) if trial else default
 
 
 def module_at(path: Path, name: str):

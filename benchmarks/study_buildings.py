@@ -8,7 +8,8 @@ ends (regions with a single door or join), clutter, starts, the reachable free f
 of the floor, the MuJoCo geom count and which draw passed the checks. A plan with
 ``loops == 0`` is tree-like: no revisit can close a loop in it.
 
-Writes into ``--out`` (default ``benchmarks/results/buildings``): ``contact_sheet.png``
+Writes into ``--out`` (default ``benchmarks/results/buildings``; ``--quick`` and ``--smoke`` without it: a
+temporary folder, never the committed results): ``contact_sheet.png``
 (seeds 0..15, one scale), ``buildings.csv`` (one row per seed), ``summary.json`` and
 ``table.md`` (mean, std and quantiles of each statistic, and the fractions).
 
@@ -39,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine  # noqa: E402
+from common import emit, machine, output_dir  # noqa: E402
 
 from explore_rl import comparison, viz  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
@@ -57,7 +58,7 @@ def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=200, help="statistics over seeds 0..N-1")
     parser.add_argument("--sheet", type=int, default=16, help="seeds on the contact sheet (a square number)")
-    parser.add_argument("--out", default=str(RESULTS))
+    parser.add_argument("--out", default=None, help="default benchmarks/results/buildings; --quick/--smoke: a temporary folder")
     parser.add_argument("--ordering", default=None, metavar="DIR",
                         help="check the paper's ordering in an explore-rl-eval sweep over building seeds")
     parser.add_argument("--quick", action="store_true", help="50 seeds")
@@ -249,7 +250,7 @@ def main() -> None:
         emit({"smoke": False, "buildings": result["buildings"], "counts": result["counts"],
               "by_loops": result["by_loops"], "machine": machine()})
         return
-    out = Path(args.out)
+    out = output_dir(args.out, RESULTS, args.quick or args.smoke, "buildings")
     out.mkdir(parents=True, exist_ok=True)
     config = load_config(["scene=building"])
     body = RobotBodyConfig(config.robot.radius, tuple(config.robot.body_size), config.lidar.mount_height)

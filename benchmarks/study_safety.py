@@ -20,7 +20,8 @@ The last stdout line is JSON with the table and the issue-15 targets, checked on
         [--resume] [--summarise-only] [--out DIR]
 
 Every finished run is appended to ``DIR/safety_runs.jsonl`` (default
-``benchmarks/results/safety``) as it completes; ``--resume`` skips runs already there and
+``benchmarks/results/safety``; ``--quick`` and ``--smoke`` without ``--out``: a temporary folder, so they never
+overwrite the committed runs) as it completes; ``--resume`` skips runs already there and
 ``--summarise-only`` rebuilds the table from that log.
 """
 
@@ -35,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine  # noqa: E402
+from common import emit, machine, output_dir  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCENES = ["office", "street", "garage"]
@@ -153,7 +154,8 @@ def main() -> None:
     parser.add_argument("--override", nargs="*", action="extend", default=[], help="Hydra overrides for every run")
     parser.add_argument("--resume", action="store_true", help="skip runs already in the run log")
     parser.add_argument("--summarise-only", action="store_true", help="only rebuild the table from the run log")
-    parser.add_argument("--out", type=Path, default=RESULTS / "safety")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="default benchmarks/results/safety; --quick/--smoke: a temporary folder")
     args = parser.parse_args()
     if args.seeds < 1 or args.workers < 1:
         parser.error(f"--seeds and --workers must be >= 1, got {args.seeds} and {args.workers}")
@@ -167,6 +169,7 @@ def main() -> None:
     if icp:
         jobs += [("office", "nearest", seed, variant, "icp", extra) for seed in range(args.icp_seeds)
                  for variant in VARIANTS]
+    args.out = output_dir(args.out, RESULTS / "safety", args.quick or args.smoke, "safety")
     args.out.mkdir(parents=True, exist_ok=True)
     log_path = args.out / "safety_runs.jsonl"
     done = [r for r in read_runs(log_path) if args.resume or args.summarise_only]
