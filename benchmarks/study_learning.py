@@ -29,13 +29,12 @@ import argparse
 import csv
 import json
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine  # noqa: E402
+from common import emit, machine, output_dir  # noqa: E402
 
 from explore_rl.config import Config, load_config, load_saved_config  # noqa: E402
 from explore_rl.trainer.evaluate import (  # noqa: E402
@@ -214,7 +213,7 @@ def held_out(args, scene: str, layouts: list[int], trained_scene: str | None, tr
 def main() -> None:
     args = parse_args()
     extra = ["planning.actions.max_frontiers=3", "model.hidden=16", "model.mlp_hidden=16"] if args.smoke else []
-    out = Path(args.out) if args.out else (Path(tempfile.mkdtemp()) if args.smoke else RESULTS)
+    out = output_dir(args.out or None, RESULTS, args.smoke, "learning")
     out.mkdir(parents=True, exist_ok=True)
     runs = [Path(r) for r in args.runs]
     if args.smoke:
