@@ -149,6 +149,7 @@ def validate(config: Config) -> None:
     checks.non_negative("policy.revisit_bias", config.policy.revisit_bias)
     checks.non_negative("policy.loop_bias", config.policy.loop_bias)
     checks.non_negative("policy.loop_bias_until_m", config.policy.loop_bias_until_m)
+    checks.non_negative("policy.closure_bias", config.policy.closure_bias)
     checks.at_least("policy.em_top_k", config.policy.em_top_k, 0)
     config.env.validate()
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:

@@ -126,6 +126,11 @@ class PolicyConfig:
     travelled less than this many metres (its own odometry) -- the prior in the opening phase of
     an exploration, without its detours later; 0: at every decision.
 
+    ``closure_bias`` (learned only): added to each frontier's logit per metre of relative
+    position uncertainty a loop closure on its path would remove (the current keyframe
+    against each keyframe it revisits, the largest; ``explore_rl.planning.learned.closure_gains``)
+    -- a decision-time prior towards closures that pay, not learned; 0 is the actor alone.
+
     ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
     probable frontiers (after the priors) by its utility -- a hybrid, not the learned
     policy alone, that costs about what EM costs (EM's decision context dominates); a
@@ -136,4 +141,5 @@ class PolicyConfig:
     revisit_bias: float = 0.0
     loop_bias: float = 0.0
     loop_bias_until_m: float = 0.0
+    closure_bias: float = 0.0
     em_top_k: int = 0

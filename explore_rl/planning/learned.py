@@ -61,7 +61,13 @@ from explore_rl.planning.em_fast import PLANAR, FuseRounds, fuse_batched, world_
 from explore_rl.planning.policies import PolicyConfig
 from explore_rl.planning.virtual_map import VirtualMap
 from explore_rl.robot_config import RobotConfig
-from explore_rl.slam.marginals import BLOCK, DepthMarginals, information_from_jacobian, planar_blocks
+from explore_rl.slam.marginals import (
+    BLOCK,
+    DepthMarginals,
+    SparseMarginals,
+    information_from_jacobian,
+    planar_blocks,
+)
 
 if TYPE_CHECKING:
     from explore_rl.slam.pose_graph import PoseGraph
@@ -262,10 +268,8 @@ def pose_marginals(graph: PoseGraph, poses: np.ndarray, backend: str) -> np.ndar
     its candidates, the graph needs only the diagonal). If that fails, EM's own route
     (which falls back to iSAM2's queries, logged)."""
     if backend == "fast":
-        try:  # the system of PoseGraph.information_matrix, in blocks
-            linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
-            information = information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
-            return world_from_tangent(_tangent_marginals(information), poses)
+        try:
+            return world_from_tangent(_tangent_marginals(linearised_information(graph)), poses)
         except (RuntimeError, ValueError, np.linalg.LinAlgError) as error:
             log.debug("depth-level marginals failed at %d poses (%s); EM's route instead", len(poses), error)
     return pose_covariances(graph, poses, backend)[0]
@@ -315,6 +319,75 @@ def loop_length_rows(graph: ExplorationGraph, encoded: EncodedGraph) -> np.ndarr
     values = np.zeros(len(encoded.action_mask), dtype=np.float32)
     values[rows] = loop_lengths(n_poses, graph.edges, graph.weights, graph.current, encoded.nodes[rows])
     return values
+
+
+def closure_gains(graph: PoseGraph, poses: np.ndarray, actions: list[Action], loop_sigma: float) -> np.ndarray:
+    """``(A,)``: for each action, the largest over the keyframes its path revisits of the
+    relative position uncertainty (m) a loop factor would remove between the current
+    (latest) keyframe and that keyframe: ``sqrt(tr(S (S + R)^-1 S))``, ``S`` the world-frame
+    covariance of their position difference (joint marginals of the linearised system),
+    ``R = loop_sigma^2 I`` (EM's predicted loop factor, ``planning.em.loop_sigma_translation``).
+    Large where the drift between the two is large, ~0 where a closure is already there
+    or the factor's own noise dominates: what a closure pays. 0 for an action that revisits
+    none; all 0 (logged) if the system cannot be factorised."""
+    gains = np.zeros(len(actions))
+    revisited = sorted({r.keyframe_index for action in actions for r in action.prediction.revisits})
+    if not revisited:
+        return gains
+    current = graph.num_poses - 1
+    try:
+        relative = relative_position_covariances(linearised_information(graph), poses, current,
+                                                 np.asarray(revisited))
+    except (RuntimeError, ValueError, np.linalg.LinAlgError) as error:
+        log.warning("closure gains: the pose graph of %d keyframes cannot be factorised (%s); prior off this decision",
+                    graph.num_poses, error)
+        return gains
+    noise = loop_sigma ** 2 * np.eye(2)
+    removed = relative @ np.linalg.solve(relative + noise, relative)
+    gain_of = dict(zip(revisited, np.sqrt(np.clip(np.trace(removed, axis1=1, axis2=2), 0.0, None))))
+    for i, action in enumerate(actions):
+        gains[i] = max((gain_of[r.keyframe_index] for r in action.prediction.revisits), default=0.0)
+    return gains
+
+
+def relative_position_covariances(information: sp.spmatrix, poses: np.ndarray, current: int,
+                                  keyframes: np.ndarray) -> np.ndarray:
+    """``(k, 2, 2)`` world-frame covariance of ``p_k - p_current`` for each of ``keyframes``, from
+    the pose graph's information matrix ``(6K, 6K)`` (Pose3 tangents in pose order) at planar
+    ``poses (K, 3)``: ``W_kk + W_cc - W_kc - W_kc^T`` with ``W_ij = R_i Cov(t_i, t_j) R_j^T`` (a
+    tangent's translation is in its body frame); the covariance columns of those poses by sparse
+    solves of one factorisation (of the planar system when nothing joins it to the rest)."""
+    information = sp.bsr_matrix(information, blocksize=(BLOCK, BLOCK))
+    planar = planar_blocks(information, PLANAR)
+    if planar is None:
+        marginals, translation = SparseMarginals(information), (PLANAR[1], PLANAR[2])
+    else:
+        marginals, translation = SparseMarginals(planar, block=len(PLANAR)), (1, 2)
+    wanted = np.r_[current, np.asarray(keyframes, dtype=np.int64)]
+    columns = marginals.columns(wanted, translation)  # (bK, 2 (1 + k))
+    rows = (marginals.block * wanted[:, None] + np.asarray(translation)).ravel()
+    joint = columns[rows].reshape(len(wanted), 2, len(wanted), 2).transpose(0, 2, 1, 3)  # [i, j] = Cov(t_i, t_j)
+    c, s = np.cos(poses[wanted, 2]), np.sin(poses[wanted, 2])
+    rotation = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)  # (1 + k, 2, 2)
+    world = rotation[:, None] @ joint @ np.swapaxes(rotation, 1, 2)[None]  # W_ij
+    cross, own = world[1:, 0], world[np.arange(1, len(wanted)), np.arange(1, len(wanted))]
+    return own + world[0, 0] - cross - np.swapaxes(cross, 1, 2)
+
+
+def linearised_information(graph: PoseGraph) -> sp.bsr_matrix:
+    """The pose graph's information matrix at iSAM2's linearisation point, in 6x6 blocks (the
+    system of ``PoseGraph.information_matrix``, formed block by block)."""
+    linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
+    return information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
+
+
+def action_rows(values: np.ndarray, actions: list[Action], graph: ExplorationGraph, encoded: EncodedGraph) -> np.ndarray:
+    """``(N,)``: the per-action ``values`` on the encoded frontier rows (0 on pose and padding rows)."""
+    of_candidate = {action.candidate: value for action, value in zip(actions, values)}
+    rows = np.zeros(len(encoded.action_mask), dtype=np.float32)
+    for row in np.flatnonzero(encoded.action_mask):
+        rows[row] = of_candidate[int(graph.candidate[encoded.nodes[row]])]
+    return rows
 
 
 def shortlist_rows(logits: torch.Tensor, action_mask: torch.Tensor, k: int) -> np.ndarray:
@@ -471,7 +544,7 @@ class LearnedPolicy:
         encoded = encode(graph, self.max_nodes, compact=not self.reference)
         after_graph = time.perf_counter()
         logits = actor_logits(self.actor, encoded)
-        biased = self.biased(logits, graph, encoded, actions, state.travel)
+        biased = self.biased(logits, graph, encoded, actions, state)
         action_mask = torch.from_numpy(encoded.action_mask)
         after_forward = time.perf_counter()
         self.last_graph, self.last_encoded, self.last_logits = graph, encoded, logits
@@ -497,17 +570,24 @@ class LearnedPolicy:
         return self._em
 
     def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
-               actions: list[Action], travel: float) -> torch.Tensor:
+               actions: list[Action], state: ExplorationState) -> torch.Tensor:
         """The logits the greedy choice reads: the actor's, plus ``policy.revisit_bias`` per
-        keyframe a frontier's path revisits and ``policy.loop_bias`` per metre of its
-        ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's);
-        the second only before ``policy.loop_bias_until_m`` metres of ``travel``, if that is set."""
+        keyframe a frontier's path revisits, ``policy.loop_bias`` per metre of its
+        ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's)
+        and ``policy.closure_bias`` per metre of its :func:`closure_gains` (towards closures
+        that remove drift); the second only before ``policy.loop_bias_until_m`` metres of
+        travel, if that is set."""
         revisit_bias, loop_bias = float(self.config.revisit_bias), float(self.config.loop_bias)
-        until = float(self.config.loop_bias_until_m)
-        if until > 0 and travel >= until:
+        closure_bias, until = float(self.config.closure_bias), float(self.config.loop_bias_until_m)
+        if until > 0 and state.travel >= until:
             loop_bias = 0.0
         if revisit_bias:
             logits = logits + revisit_bias * torch.from_numpy(revisit_counts(graph, encoded, actions))
         if loop_bias:
             logits = logits + loop_bias * torch.from_numpy(loop_length_rows(graph, encoded))
+        if closure_bias:
+            session = state.session
+            gains = closure_gains(session.graph, session.graph.poses_se2(), actions,
+                                  self.planning.em.loop_sigma_translation)
+            logits = logits + closure_bias * torch.from_numpy(action_rows(gains, actions, graph, encoded))
         return logits

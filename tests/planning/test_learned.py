@@ -16,6 +16,7 @@ from explore_rl.planning.learned import (
     Equivalence,
     LearnedPolicy,
     actor_logits,
+    closure_gains,
     decision_difference,
     frontier_covariances,
     graph_features,
@@ -191,6 +192,58 @@ def test_the_loop_prior_stops_after_its_travel(tmp_path):
     assert informative > 0
     with pytest.raises(ValueError, match="policy.loop_bias_until_m") as error:
         load_config([*FAST, "policy.loop_bias_until_m=-1"])
+    assert "\n" not in str(error.value)
+
+
+def dense_closure_gain(information: np.ndarray, poses: np.ndarray, current: int, keyframe: int,
+                       loop_sigma: float) -> float:
+    """The relative position std a loop factor removes, from the dense inverse of the whole 6-dof
+    system and the posterior covariance ``(S^-1 + R^-1)^-1`` (a route independent of ``closure_gains``)."""
+    covariance = np.linalg.inv(information)
+    translation = [3, 4]  # Pose3 tangent (rx, ry, rz, tx, ty, tz)
+
+    def world(i: int, j: int) -> np.ndarray:
+        def rotation(k: int) -> np.ndarray:
+            c, s = np.cos(poses[k, 2]), np.sin(poses[k, 2])
+            return np.array([[c, -s], [s, c]])
+        block = covariance[np.ix_(6 * i + np.array(translation), 6 * j + np.array(translation))]
+        return rotation(i) @ block @ rotation(j).T
+
+    relative = world(keyframe, keyframe) + world(current, current) - world(keyframe, current) - world(current, keyframe)
+    after = np.linalg.inv(np.linalg.inv(relative) + np.eye(2) / loop_sigma ** 2)
+    return float(np.sqrt(np.trace(relative - after)))
+
+
+def test_closure_gains_equal_a_dense_inverse_and_steer_the_prior(tmp_path):
+    """``closure_gains`` on real env states: each action's value is the largest, over the keyframes its path
+    revisits, of the relative position std a loop factor removes, computed independently from the dense inverse of
+    the 6-dof system (0 for an action that revisits none). ``policy.closure_bias`` far above the logits' spread picks
+    a frontier of the largest gain and keeps the actor's logits; a negative value is refused in one line."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+    sigma = config.planning.em.loop_sigma_translation
+    alone = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path)), config.planning, graph=config.graph)
+    biased = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), closure_bias=1e6), config.planning,
+                           graph=config.graph)
+    informative = 0  # decisions whose frontiers differ in their gain
+    for decision, _ in env_decisions(config, learner, steps=6):
+        state, actions = decision.state, decision.actions
+        graph = state.session.graph
+        poses, current = graph.poses_se2(), graph.num_poses - 1
+        gains = closure_gains(graph, poses, actions, sigma)
+        information = graph.information_matrix().toarray()
+        for action, gain in zip(actions, gains):
+            expected = max((dense_closure_gain(information, poses, current, r.keyframe_index, sigma)
+                            for r in action.prediction.revisits), default=0.0)
+            assert gain == pytest.approx(expected, rel=1e-6, abs=1e-12)
+        choice = biased.choose(state)
+        alone.choose(state)
+        np.testing.assert_array_equal(biased.last_logits, alone.last_logits)
+        assert gains[[a.candidate for a in actions].index(choice)] == pytest.approx(gains.max(), rel=1e-9)
+        informative += gains.max() > gains.min() + 1e-6
+    assert informative > 0
+    with pytest.raises(ValueError, match="policy.closure_bias") as error:
+        load_config([*FAST, "policy.closure_bias=-1"])
     assert "\n" not in str(error.value)
 
 

@@ -41,20 +41,11 @@ EPISODE_STREAM = 45  # the episodes' seeds, apart from every other stream of the
 
 def relative_uncertainty(information, poses: np.ndarray, current: int) -> np.ndarray:
     """``(K,)`` trace of the world-frame xy covariance of ``p_current - p_k`` for every keyframe ``k``, from the
-    pose graph's information matrix ``(6K, 6K)`` (Pose3 tangents in pose order) at planar ``poses (K, 3)``."""
-    from explore_rl.planning.em_fast import TRANS_X, TRANS_Y
-    from explore_rl.slam.marginals import SparseMarginals
+    pose graph's information matrix ``(6K, 6K)`` (Pose3 tangents in pose order) at planar ``poses (K, 3)``
+    (``explore_rl.planning.learned.relative_position_covariances``, which ``policy.closure_bias`` reads)."""
+    from explore_rl.planning.learned import relative_position_covariances
 
-    marginals = SparseMarginals(information)
-    diagonal = marginals.diagonal_blocks()  # (K, 6, 6)
-    cross = marginals.cross_blocks([current])[:, 0]  # (K, 6, 6): Cov(x_k, x_current)
-    jac = np.zeros((len(poses), 2, 6))  # world xy of a tangent translation
-    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
-    jac[:, 0, TRANS_X], jac[:, 0, TRANS_Y] = c, -s
-    jac[:, 1, TRANS_X], jac[:, 1, TRANS_Y] = s, c
-    world = jac @ diagonal @ np.swapaxes(jac, 1, 2)  # (K, 2, 2)
-    between = jac @ cross @ jac[current].T  # (K, 2, 2): Cov(p_k, p_current)
-    relative = world + world[current] - between - np.swapaxes(between, 1, 2)
+    relative = relative_position_covariances(information, poses, current, np.arange(len(poses)))
     return np.trace(relative, axis1=1, axis2=2)
 
 
@@ -75,24 +66,17 @@ def path_map(prediction, landmark_xy: np.ndarray, landmark_covs: np.ndarray, rob
     return int(near.sum()), float(before.sum()), float((before - np.trace(after, axis1=1, axis2=2)).sum())
 
 
-def information_of(graph) -> tuple:
-    """The pose graph's information matrix at its estimate (as the learned planner's marginals read it)."""
-    from explore_rl.slam.marginals import information_from_jacobian
-
-    linear = graph.isam.getFactorsUnsafe().linearize(graph.isam.getLinearizationPoint())
-    return information_from_jacobian(*linear.sparseJacobian_(), graph.num_poses)
-
-
 def decision_row(decision, em=None) -> dict | None:
     """One decision's record (None if EM failed on it); ``em``: the env's EM planner, for the virtual map."""
     from explore_rl.graph.features import feature_names
+    from explore_rl.planning.learned import linearised_information
 
     if decision.rewards is None:
         return None
     state, graph = decision.state, decision.graph
     poses = state.session.graph.poses_se2()
     current = int(graph.keyframe[graph.current])
-    relative = relative_uncertainty(information_of(state.session.graph), poses, current)
+    relative = relative_uncertainty(linearised_information(state.session.graph), poses, current)
     loop_uncertainty = [max((float(relative[r.keyframe_index]) for r in action.prediction.revisits), default=0.0)
                         for action in decision.actions]
     row = {"features": list(feature_names("loops")),
