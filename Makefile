@@ -30,7 +30,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 
 test: lint
-	$(PY) -m pytest -n 2
+	$(PY) -m pytest -n 2 --durations=15
 
 test-slow: $(STAMP)
 	$(PY) -c "import ray" 2>/dev/null || $(PY) -m pip install -e ".[ray]"
