@@ -1,19 +1,21 @@
 """stop_coverage/reached.py: the buildings where every policy reached the stop coverage are copied, the others
 not; the counts per policy. by_coverage.py: the pooled ratios at each coverage over the buildings both reached,
 against ratios built into made-up explorations. phases.py: the learned / EM ratios of metres per decision, loop
-closures per metre and open frontiers in each coverage band, against ratios built in. Bad arguments refused in one
-line."""
+closures per metre and open frontiers in each coverage band, against ratios built in. line.py: each variant's
+distance from the line through two others, by hand. Bad arguments refused in one line."""
 
 from __future__ import annotations
 
 import json
 
 import numpy as np
+import pytest
 
-from tests.benchmarks.smoke import run_main
+from tests.benchmarks.smoke import json_lines, run_main
 
 SCRIPT = "benchmarks/results/stop_coverage/reached.py"
 BY_COVERAGE = "benchmarks/results/stop_coverage/by_coverage.py"
+LINE = "benchmarks/results/stop_coverage/line.py"
 
 
 def building(run, seed: int, explored: dict[str, float]):
@@ -120,3 +122,43 @@ def test_phases_refuses_bad_arguments_in_one_line(tmp_path, capsys):
     assert code == 2 and "no building_SEED/trials.jsonl" in err
     code, _, err = run_main(PHASES, [str(tmp_path), "--bands", "0.5", "0.3"], capsys)
     assert code == 2 and "--bands 0.5 0.3" in err
+
+
+def targets_json(path, travel: float, error: float, scenes: int = 3) -> str:
+    """A study_zero_shot.py targets.json with one per-building entry and the pooled one."""
+    pooled = {"scene": f"all {scenes} scenes", "scenes": scenes, "travel_ratio": travel, "error_ratio": error,
+              "travel_ratio_ci95": [travel - 0.05, travel + 0.05], "error_ratio_ci95": [error - 0.1, error + 0.1]}
+    building = {**pooled, "scene": "building_1", "scenes": 1}
+    path.write_text(json.dumps({"targets": {"coverage": 0.85}, "entries": [building, pooled]}))
+    return str(path)
+
+
+def test_line_measures_each_point_against_the_line_through_two(tmp_path, capsys):
+    """line.py: the line through (1.0, 1.2) and (1.1, 1.0) has slope -2 and intercept 3.2; a point at (1.05, 1.0)
+    lies 0.1 below it; the CSV and the PNG are written."""
+    a = targets_json(tmp_path / "a.json", 1.0, 1.2)
+    b = targets_json(tmp_path / "b.json", 1.1, 1.0)
+    c = targets_json(tmp_path / "c.json", 1.05, 1.0)
+    code, out, err = run_main(LINE, ["--out", str(tmp_path / "out"), "--point", f"a={a}", "--point", f"b={b}",
+                                     "--point", f"c={c}", "--line", "a", "b"], capsys)
+    assert code == 0, err
+    lines = json_lines(out)
+    assert lines[-1]["slope"] == pytest.approx(-2.0) and lines[-1]["intercept"] == pytest.approx(3.2)
+    above = {row["name"]: row["above_line"] for row in lines[:-1]}
+    assert above["a"] == pytest.approx(0.0) and above["b"] == pytest.approx(0.0)
+    assert above["c"] == pytest.approx(-0.1)
+    assert (tmp_path / "out" / "line.png").stat().st_size > 0
+    assert len((tmp_path / "out" / "line.csv").read_text().splitlines()) == 4
+
+
+@pytest.mark.parametrize("args", [["--line", "a", "zz"], ["--line", "a", "a"], ["--point", "nameless"]])
+def test_line_refuses_bad_arguments_in_one_line(tmp_path, capsys, args):
+    a = targets_json(tmp_path / "a.json", 1.0, 1.2)
+    base = ["--out", str(tmp_path), "--point", f"a={a}"]
+    if args[0] == "--point":
+        argv = [*base, *args, "--line", "a", "a"]
+    else:
+        argv = [*base, *args]
+    code, _, err = run_main(LINE, argv, capsys)
+    assert code == 2
+    assert len([line for line in err.splitlines() if "error:" in line]) == 1
