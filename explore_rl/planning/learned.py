@@ -303,11 +303,7 @@ def actor_logits(actor: GraphActor, encoded: EncodedGraph) -> torch.Tensor:
 def revisit_counts(graph: ExplorationGraph, encoded: EncodedGraph, actions: list[Action]) -> np.ndarray:
     """``(N,)``: keyframes the path of each encoded frontier row revisits (its predicted loop
     closures, the ``revisits`` node feature of the extended set); 0 on pose and padding rows."""
-    per_candidate = {action.candidate: len(action.prediction.revisits) for action in actions}
-    counts = np.zeros(len(encoded.action_mask), dtype=np.float32)
-    for row in np.flatnonzero(encoded.action_mask):
-        counts[row] = per_candidate[int(graph.candidate[encoded.nodes[row]])]
-    return counts
+    return action_rows(np.array([len(action.prediction.revisits) for action in actions]), actions, graph, encoded)
 
 
 def loop_length_rows(graph: ExplorationGraph, encoded: EncodedGraph) -> np.ndarray:
