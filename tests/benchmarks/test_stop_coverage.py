@@ -2,7 +2,8 @@
 not; the counts per policy. by_coverage.py: the pooled ratios at each coverage over the buildings both reached,
 against ratios built into made-up explorations. phases.py: the learned / EM ratios of metres per decision, loop
 closures per metre and open frontiers in each coverage band, against ratios built in. line.py: each variant's
-distance from the line through two others, by hand. Bad arguments refused in one line."""
+distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. Bad arguments
+refused in one line."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from tests.benchmarks.smoke import json_lines, run_main
 SCRIPT = "benchmarks/results/stop_coverage/reached.py"
 BY_COVERAGE = "benchmarks/results/stop_coverage/by_coverage.py"
 LINE = "benchmarks/results/stop_coverage/line.py"
+BY_KIND = "benchmarks/results/stop_coverage/by_kind.py"
 
 
 def building(run, seed: int, explored: dict[str, float]):
@@ -162,3 +164,24 @@ def test_line_refuses_bad_arguments_in_one_line(tmp_path, capsys, args):
     code, _, err = run_main(LINE, argv, capsys)
     assert code == 2
     assert len([line for line in err.splitlines() if "error:" in line]) == 1
+
+
+def test_by_kind_groups_the_per_building_ratios(tmp_path, capsys):
+    """by_kind.py: per group, the geometric mean of the buildings' ratios (by hand); every building is in "all" and
+    in exactly one of "loops" / "no loops" and one area tercile; the pooled entry is not a building."""
+    seeds, ratios = [0, 1, 2, 3, 4, 5], [0.8, 1.25, 1.0, 2.0, 0.5, 1.0]
+    entries = [{"scene": f"run/building_{s}", "travel_ratio": 1.0, "error_ratio": r} for s, r in zip(seeds, ratios)]
+    entries.append({"scene": "all 6 scenes", "travel_ratio": 9.0, "error_ratio": 9.0})
+    path = tmp_path / "targets.json"
+    path.write_text(json.dumps({"targets": {}, "entries": entries}))
+    code, out, err = run_main(BY_KIND, [f"x={path}"], capsys)
+    assert code == 0, err
+    rows = {row["group"]: row for row in json_lines(out)}
+    assert rows["all"]["buildings"] == 6
+    assert rows["all"]["error_ratio"] == pytest.approx(float(np.exp(np.mean(np.log(ratios)))), abs=1e-3)
+    assert rows["all"]["travel_ratio"] == pytest.approx(1.0)
+    assert rows.get("loops", {"buildings": 0})["buildings"] + rows.get("no loops", {"buildings": 0})["buildings"] == 6
+    assert sum(rows[g]["buildings"] for g in rows if g.startswith("area ")) == 6
+    assert sum(rows[g]["buildings"] for g in rows if g.startswith("corridor ")) == 6
+    code, _, err = run_main(BY_KIND, [f"x={tmp_path / 'missing.json'}"], capsys)
+    assert code == 2 and len([line for line in err.splitlines() if "error:" in line]) == 1
