@@ -87,6 +87,18 @@ def output_dir(out: str | Path | None, default: Path, trial: bool, name: str) ->
     return Path(tempfile.mkdtemp(prefix=f"{name}_trial_")) if trial else default
 
 
+def named_paths(specs: Iterable[str], flag: str = "") -> dict[str, Path]:
+    """``NAME=PATH`` arguments as ``{name: path}`` in their order; ValueError naming the
+    first malformed one (``flag``: the option they came with, for the message)."""
+    named = {}
+    for spec in specs:
+        name, sep, path = spec.partition("=")
+        if not sep or not name or not path:
+            raise ValueError(f"{flag}{spec!r}: give NAME=PATH")
+        named[name] = Path(path)
+    return named
+
+
 def module_at(path: Path, name: str):
     """The script at ``path`` as a module named ``name`` (several result folders hold a ``probe.py`` or a
     ``calibrate.py``, so each gets a name of its own); registered while it runs, as an import would be

@@ -43,3 +43,13 @@ def test_the_bootstrap_resamples_whole_layouts_not_rows() -> None:
 def test_seed_list_reads_ranges_and_lists():
     assert seed_list("0-7") == list(range(8))
     assert seed_list("0,3,5-6") == [0, 3, 5, 6] and seed_list("4") == [4]
+
+
+def test_named_paths_keep_their_order_and_refuse_a_malformed_one():
+    from common import named_paths
+
+    assert named_paths(["b=x/1.json", "a=y.json"]) == {"b": Path("x/1.json"), "a": Path("y.json")}
+    for bad in ("nameless", "=path", "name="):
+        with pytest.raises(ValueError, match="--point") as error:
+            named_paths([bad], "--point ")
+        assert "\n" not in str(error.value)

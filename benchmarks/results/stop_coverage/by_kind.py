@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from common import emit  # noqa: E402
+from common import emit, named_paths  # noqa: E402
 
 BOOTSTRAP = 2000
 
@@ -73,13 +73,8 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("inputs", nargs="+", metavar="NAME=TARGETS_JSON", help="a name and a targets.json")
     args = parser.parse_args(argv)
-    inputs = {}
     try:
-        for spec in args.inputs:
-            name, sep, path = spec.partition("=")
-            if not sep or not name:
-                raise ValueError(f"{spec!r}: give NAME=TARGETS_JSON")
-            inputs[name] = per_building(Path(path))
+        inputs = {name: per_building(path) for name, path in named_paths(args.inputs).items()}
     except (OSError, KeyError, ValueError) as error:
         parser.error(str(error).splitlines()[0])
     stats = plan_stats(sorted({s for entries in inputs.values() for s in entries}))

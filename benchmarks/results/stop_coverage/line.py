@@ -15,7 +15,11 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import sys
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+from common import named_paths  # noqa: E402
 
 
 def pooled(path: Path) -> dict:
@@ -66,13 +70,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--target", type=float, default=1.1, help="the issue's ratio target, drawn on both axes")
     parser.add_argument("--out", type=Path, required=True, help="folder for line.csv and line.png")
     args = parser.parse_args(argv)
-    points = {}
     try:
-        for spec in args.point:
-            name, sep, path = spec.partition("=")
-            if not sep or not name:
-                raise ValueError(f"--point {spec!r}: give NAME=TARGETS_JSON")
-            points[name] = pooled(Path(path))
+        points = {name: pooled(path) for name, path in named_paths(args.point, "--point ").items()}
         missing = [n for n in args.line if n not in points]
         if missing:
             raise ValueError(f"--line {missing[0]!r}: not among the --point names {sorted(points)}")
