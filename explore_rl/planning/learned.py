@@ -346,6 +346,15 @@ def closure_gains(graph: PoseGraph, poses: np.ndarray, actions: list[Action], lo
     return gains
 
 
+def closure_gain_rows(state: ExplorationState, actions: list[Action], graph: ExplorationGraph,
+                      encoded: EncodedGraph, loop_sigma: float) -> np.ndarray:
+    """``(N,)``: :func:`closure_gains` of ``state``'s pose graph on the encoded frontier rows
+    (0 on pose and padding rows): the column ``policy.closure_bias`` adds."""
+    session_graph = state.session.graph
+    gains = closure_gains(session_graph, session_graph.poses_se2(), actions, loop_sigma)
+    return action_rows(gains, actions, graph, encoded)
+
+
 def relative_position_covariances(information: sp.spmatrix, poses: np.ndarray, current: int,
                                   keyframes: np.ndarray) -> np.ndarray:
     """``(k, 2, 2)`` world-frame covariance of ``p_k - p_current`` for each of ``keyframes``, from
@@ -515,6 +524,7 @@ class LearnedPolicy:
         self.features = (self.actor_file.feature_set if self.actor_file is not None
                          else (graph or GraphConfig()).features)
         self._vmap: VirtualMap | None = None
+        self.last_actions: list[Action] = []  # the action set of the last decision
         self.last_graph: ExplorationGraph | None = None
         self.last_encoded: EncodedGraph | None = None
         self.last_logits: torch.Tensor | None = None
@@ -543,7 +553,7 @@ class LearnedPolicy:
         biased = self.biased(logits, graph, encoded, actions, state)
         action_mask = torch.from_numpy(encoded.action_mask)
         after_forward = time.perf_counter()
-        self.last_graph, self.last_encoded, self.last_logits = graph, encoded, logits
+        self.last_actions, self.last_graph, self.last_encoded, self.last_logits = actions, graph, encoded, logits
         self.last_evaluation = None
         if self.config.em_top_k > 0:  # EM decides among the actor's shortlist
             rows = shortlist_rows(biased, action_mask, self.config.em_top_k)
@@ -582,8 +592,6 @@ class LearnedPolicy:
         if loop_bias:
             logits = logits + loop_bias * torch.from_numpy(loop_length_rows(graph, encoded))
         if closure_bias:
-            session = state.session
-            gains = closure_gains(session.graph, session.graph.poses_se2(), actions,
-                                  self.planning.em.loop_sigma_translation)
-            logits = logits + closure_bias * torch.from_numpy(action_rows(gains, actions, graph, encoded))
+            rows = closure_gain_rows(state, actions, graph, encoded, self.planning.em.loop_sigma_translation)
+            logits = logits + closure_bias * torch.from_numpy(rows)
         return logits

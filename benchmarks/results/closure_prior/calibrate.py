@@ -32,7 +32,7 @@ def building_columns(task: tuple[int, int, list[str]]) -> dict:
     import torch
 
     from explore_rl.config import load_config
-    from explore_rl.planning.learned import action_rows, closure_gains, loop_length_rows
+    from explore_rl.planning.learned import closure_gain_rows, loop_length_rows
     from explore_rl.runner import Explorer
 
     torch.set_num_threads(1)
@@ -48,21 +48,12 @@ def building_columns(task: tuple[int, int, list[str]]) -> dict:
         chosen = policy.choose(state)
         graph, encoded = policy.last_graph, policy.last_encoded
         frontier = np.flatnonzero(encoded.action_mask)
-        actions = policy_actions(policy, state)
-        gains = action_rows(closure_gains(state.session.graph, state.session.graph.poses_se2(), actions, sigma),
-                            actions, graph, encoded)[frontier]
+        gains = closure_gain_rows(state, policy.last_actions, graph, encoded, sigma)[frontier]
         loops = loop_length_rows(graph, encoded)[frontier]
         if len(frontier) >= 2:
             rows.append({"loop_length": loops.tolist(), "gain": gains.tolist()})
         explorer.act(state, chosen)
     return {"seed": seed, "decisions": rows}
-
-
-def policy_actions(policy, state):
-    """The action set the policy decided on (the same call ``LearnedPolicy.choose`` makes)."""
-    from explore_rl.planning.actions import select_actions
-
-    return select_actions(state, policy.planning.actions, policy.planning.revisits)
 
 
 def summary(buildings: list[dict], loop_bias: float) -> dict:
