@@ -2,7 +2,8 @@
 not; the counts per policy. by_coverage.py: the pooled ratios at each coverage over the buildings both reached,
 against ratios built into made-up explorations. phases.py: the learned / EM ratios of metres per decision, loop
 closures per metre and open frontiers in each coverage band, against ratios built in. line.py: each variant's
-distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. Bad arguments
+distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. divergence.py: the
+first decision where two runs part, and the graph size there, on made-up trials. Bad arguments
 refused in one line."""
 
 from __future__ import annotations
@@ -185,3 +186,45 @@ def test_by_kind_groups_the_per_building_ratios(tmp_path, capsys):
     assert sum(rows[g]["buildings"] for g in rows if g.startswith("corridor ")) == 6
     code, _, err = run_main(BY_KIND, [f"x={tmp_path / 'missing.json'}"], capsys)
     assert code == 2 and len([line for line in err.splitlines() if "error:" in line]) == 1
+
+
+DIVERGENCE = "benchmarks/results/stop_coverage/divergence.py"
+
+
+def decided(run, seed: int, choices: list[tuple[float, int]], policy: str = "learned"):
+    """A finished building whose ``policy`` trial chose ``(x, nodes)`` at each decision (keyframes = nodes - 2)."""
+    folder = run / f"building_{seed}"
+    folder.mkdir(parents=True)
+    rows = [{"chosen_x": x, "chosen_y": 0.0, "keyframes": nodes - 2, "candidates": 2} for x, nodes in choices]
+    trials = [{"policy": policy, "rows": rows}, {"policy": "em", "rows": []}]
+    folder.joinpath("trials.jsonl").write_text("".join(json.dumps(t) + "\n" for t in trials))
+
+
+def test_divergence_finds_the_first_decision_where_two_runs_part(tmp_path, capsys):
+    variant, reference = tmp_path / "variant", tmp_path / "reference"
+    decided(variant, 1, [(1.0, 100), (2.0, 600), (3.0, 700)])
+    decided(reference, 1, [(1.0, 100), (2.0, 600), (3.0, 700)])  # identical
+    decided(variant, 2, [(1.0, 100), (2.0, 300), (5.0, 800)])
+    decided(reference, 2, [(1.0, 100), (2.0, 300), (4.0, 800)])  # parts at decision 2, over 512 nodes
+    decided(variant, 3, [(1.0, 100), (9.0, 200)])
+    decided(reference, 3, [(1.0, 100), (2.0, 200)])  # parts at decision 1, within 512
+    decided(variant, 4, [(1.0, 100)])
+    decided(reference, 4, [(1.0, 100), (2.0, 900)])  # the variant stopped first: parts where it ends
+    decided(variant, 5, [(1.0, 100)])  # no reference building: not counted
+    code, out, _ = run_main(DIVERGENCE, [str(variant), "--reference", str(reference), "--nodes", "512"], capsys)
+    lines = json_lines(out)
+    assert code == 0
+    assert {line["building"]: (line["first_difference"], line["nodes"]) for line in lines[:-1]} == {
+        "building_2": (2, 800), "building_3": (1, 200), "building_4": (1, None)}
+    assert lines[-1] == {"buildings": 4, "identical": 1, "diverge_over_nodes": 1, "diverge_within_nodes": 2,
+                         "nodes": 512}
+
+
+@pytest.mark.parametrize(("args", "message"), [(["--nodes", "0"], "--nodes 0: give a positive graph size"),
+                                               ([], "no building with a 'learned' trial in both")])
+def test_divergence_refuses_bad_arguments_in_one_line(tmp_path, capsys, args, message):
+    decided(tmp_path / "variant", 1, [(1.0, 100)])
+    (tmp_path / "reference").mkdir()  # no building: nothing to pair
+    code, _, err = run_main(DIVERGENCE, [str(tmp_path / "variant"), "--reference", str(tmp_path / "reference"),
+                                         *args], capsys)
+    assert code == 2 and message in err.strip().splitlines()[-1]
