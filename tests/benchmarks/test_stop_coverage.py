@@ -3,7 +3,8 @@ not; the counts per policy. by_coverage.py: the pooled ratios at each coverage o
 against ratios built into made-up explorations. phases.py: the learned / EM ratios of metres per decision, loop
 closures per metre and open frontiers in each coverage band, against ratios built in. line.py: each variant's
 distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. divergence.py: the
-first decision where two runs part, and the graph size there, on made-up trials. Bad arguments
+first decision where two runs part, and the graph size there, on made-up trials. one_step.py: the pooled gap and the
+episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). Bad arguments
 refused in one line."""
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.benchmarks.smoke import json_lines, run_main
+from tests.benchmarks.smoke import json_lines, load_script, run_main
 
 SCRIPT = "benchmarks/results/stop_coverage/reached.py"
 BY_COVERAGE = "benchmarks/results/stop_coverage/by_coverage.py"
@@ -228,3 +229,62 @@ def test_divergence_refuses_bad_arguments_in_one_line(tmp_path, capsys, args, me
     code, _, err = run_main(DIVERGENCE, [str(tmp_path / "variant"), "--reference", str(tmp_path / "reference"),
                                          *args], capsys)
     assert code == 2 and message in err.strip().splitlines()[-1]
+
+
+ONE_STEP = "benchmarks/results/stop_coverage/one_step.py"
+
+
+def test_one_step_gap_and_episode_index_by_hand():
+    """one_step.py's pooled gap closed and each decision's index within its episode, by hand."""
+    one_step = load_script(ONE_STEP)
+    assert one_step.gap_closed(np.array([1.0, 3.0]), np.array([1.0, 1.0]), np.array([3.0, 3.0])) == pytest.approx(0.5)
+    assert np.isnan(one_step.gap_closed(np.array([1.0]), np.array([1.0]), np.array([1.0])))
+    episodes = np.array([[7, 0], [7, 0], [7, 0], [8, 1], [8, 1], [7, 2]])
+    assert one_step.decision_index(episodes).tolist() == [0, 1, 2, 0, 1, 0]
+
+
+def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
+    """On a made-up dataset (two episodes of 20 and 5 decisions): EM's stored choice closes exactly the whole gap in
+    every group, the bands and area groups partition the decisions, every interval holds its point; a folder that
+    is no dataset and bad bands are refused in one line."""
+    import torch
+    from tensordict import TensorDict
+
+    from explore_rl.config import load_config
+    from explore_rl.graph.features import feature_names
+    from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    config = load_config(["graph.features=extended", *TINY_MODEL])
+    actor_path, _ = actor_file(tmp_path / "actor", config)
+    features = feature_names("extended")
+    dataset = DecisionDataset(tmp_path / "data", DatasetSchema(8, 16, list(features), 64))
+    rng = np.random.default_rng(0)
+
+    def decision(layout: int, episode: int) -> TensorDict:
+        rewards = torch.tensor([0.0, *rng.normal(size=3).tolist(), 0.0, 0.0])
+        mask = torch.tensor([False, True, True, True, False, False])
+        edges = torch.tensor([[0, 0, 0, 0, 4], [1, 2, 3, 4, 5]])
+        return TensorDict({"x": torch.from_numpy(rng.normal(size=(6, len(features)))).float(), "edges": edges,
+                           "weights": torch.ones(5), "action_mask": mask, "action_rewards": rewards,
+                           "em_action": int(torch.argmax(rewards.masked_fill(~mask, -9.0))),
+                           "layout": layout, "episode": episode}, batch_size=[])
+
+    dataset.append([decision(0, 0) for _ in range(20)], scene="building")
+    dataset.append([decision(1, 1) for _ in range(5)], scene="building")
+    code, out, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--actor", str(actor_path)], capsys)
+    assert code == 0, err
+    rows = {row["group"]: row for row in json_lines(out)}
+    assert rows["all"]["decisions"] == 25 and rows["all"]["episodes"] == 2
+    assert rows["decisions 0-14"]["decisions"] == 20 and rows["decisions 15-29"]["decisions"] == 5
+    assert "decisions 30-" not in rows  # empty
+    assert sum(rows[g]["decisions"] for g in rows if g.startswith("area ")) == 25
+    for row in rows.values():
+        assert row["em"] == pytest.approx(1.0)
+        for column in ("greedy", "expected"):
+            low, high = row[f"{column}_ci95"]
+            assert low - 1e-9 <= row[column] <= high + 1e-9 and -10 < row[column] <= 1.0 + 1e-9
+    code, _, err = run_main(ONE_STEP, [str(tmp_path)], capsys)
+    assert code == 2 and "no dataset.json" in err.strip().splitlines()[-1]
+    code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--bands", "5", "3"], capsys)
+    assert code == 2 and "--bands 5 3" in err.strip().splitlines()[-1]

@@ -1,0 +1,135 @@
+"""The actor's one-step choice against EM's, by exploration phase and building size (descriptive).
+
+Reads a dataset of EM-labelled decisions (``benchmarks/collect_decisions.py``: EM's Algorithm 1 reward of every
+frontier of each decision, whole episodes with the actor in the loop) and scores an actor file on it. Per group of
+decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_best] - E[r_uniform])`` of
+
+* ``greedy``: the actor's most probable frontier (what the runner plays),
+* ``expected``: the reward expected under its distribution (what the offline studies report),
+* ``em``: EM's stored choice, 1 by construction (a check that rows and labels line up),
+
+with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
+(``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
+``by_kind.py``). Groups are post hoc: descriptive only (plan.md, session 55). One JSON line per group.
+
+    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from by_kind import plan_stats  # noqa: E402
+
+BOOTSTRAP = 2000
+CHUNK = 64
+
+
+def gap_closed(picked: np.ndarray, uniform: np.ndarray, best: np.ndarray) -> float:
+    """Pooled ``(mean picked - mean uniform) / (mean best - mean uniform)``; NaN if EM gains nothing."""
+    spread = best.mean() - uniform.mean()
+    return float((picked.mean() - uniform.mean()) / spread) if spread > 0 else float("nan")
+
+
+def decision_index(episodes: np.ndarray) -> np.ndarray:
+    """Each row's index within its episode, in storage order (an episode's rows are stored together, in order)."""
+    index = np.zeros(len(episodes), dtype=int)
+    seen: dict = {}
+    for row, key in enumerate(map(tuple, episodes)):
+        index[row] = seen.get(key, 0)
+        seen[key] = index[row] + 1
+    return index
+
+
+def rewards_of(dataset, actor, columns: list[int]) -> dict[str, np.ndarray]:
+    """Per decision: the greedy pick's, the expected, EM's stored choice's, a uniform pick's and the best reward."""
+    import torch
+
+    from explore_rl.envs.keys import ACTION_REWARDS
+    from explore_rl.trainer.dataset import padded_batch
+
+    out: dict[str, list] = {"greedy": [], "expected": [], "em": [], "uniform": [], "best": []}
+    with torch.no_grad():
+        for start in range(0, len(dataset), CHUNK):
+            rows = dataset.rows(torch.arange(start, min(start + CHUNK, len(dataset))))
+            batch = padded_batch(rows, columns)
+            rewards, mask = batch[ACTION_REWARDS], batch["action_mask"]
+            logits = actor(batch["x"], batch["adj"], batch["node_mask"]).masked_fill(~mask, -torch.inf)
+            probs = torch.softmax(logits, -1)
+            out["greedy"].append(rewards.gather(-1, logits.argmax(-1, keepdim=True))[:, 0])
+            out["expected"].append((probs.nan_to_num() * rewards).sum(-1))
+            out["em"].append(rewards.gather(-1, rows["em_action"][:, None])[:, 0])
+            out["uniform"].append((rewards * mask).sum(-1) / mask.sum(-1))
+            out["best"].append(rewards.masked_fill(~mask, -torch.inf).max(-1).values)
+    return {key: torch.cat(values).double().numpy() for key, values in out.items()}
+
+
+def group_line(name: str, rows: np.ndarray, rewards: dict[str, np.ndarray], episodes: np.ndarray,
+               seed: int = 0) -> dict:
+    """The group's gaps and their bootstrap intervals over the episodes it holds."""
+    keys = [tuple(e) for e in episodes[rows]]
+    unique = sorted(set(keys))
+    members = [rows[[k == key for k in keys]] for key in unique]
+    rng = np.random.default_rng(seed)
+    line: dict = {"group": name, "decisions": int(len(rows)), "episodes": len(unique)}
+    for column in ("greedy", "expected", "em"):
+        value = gap_closed(rewards[column][rows], rewards["uniform"][rows], rewards["best"][rows])
+        draws = []
+        for _ in range(BOOTSTRAP):
+            pick = np.concatenate([members[i] for i in rng.integers(0, len(members), len(members))])
+            draws.append(gap_closed(rewards[column][pick], rewards["uniform"][pick], rewards["best"][pick]))
+        low, high = np.nanquantile(draws, [0.025, 0.975])
+        line[column] = round(value, 4)
+        line[f"{column}_ci95"] = [round(float(low), 4), round(float(high), 4)]
+    return line
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
+    parser.add_argument("--actor", default=None, help="actor file (default: the shipped policy)")
+    parser.add_argument("--bands", type=int, nargs="+", default=[0, 15, 30],
+                        help="first decision index of each band, ascending from 0")
+    args = parser.parse_args(argv)
+    if args.bands[0] != 0 or any(b <= a for a, b in zip(args.bands, args.bands[1:])):
+        parser.error(f"--bands {' '.join(map(str, args.bands))}: give ascending indices starting at 0")
+    if not (args.dataset / "dataset.json").is_file():
+        parser.error(f"{args.dataset}: no dataset.json there; give a folder of benchmarks/collect_decisions.py")
+
+    from explore_rl.graph.features import feature_names
+    from explore_rl.models.actor_file import load_actor
+    from explore_rl.trainer.dataset import DecisionDataset
+
+    dataset = DecisionDataset(args.dataset)
+    actor, actor_file = load_actor(args.actor)
+    actor.eval()
+    columns = dataset.columns_for(feature_names(actor_file.feature_set))
+    rewards = rewards_of(dataset, actor, columns)
+    stored = dataset.rows()
+    episodes = np.stack([stored["layout"].numpy(), stored["episode"].numpy()], axis=1)
+    index = decision_index(episodes)
+    groups = {"all": np.arange(len(index))}
+    edges = [*args.bands, np.inf]
+    for low, high in zip(edges, edges[1:]):
+        groups[f"decisions {low}-{'' if high == np.inf else int(high) - 1}"] = np.flatnonzero(
+            (index >= low) & (index < high))
+    layouts = sorted(set(int(s) for s in episodes[:, 0]))
+    area = {seed: stats["area"] for seed, stats in plan_stats(layouts).items()}
+    areas = np.array([area[int(s)] for s in episodes[:, 0]])
+    cuts = np.quantile([area[s] for s in layouts], [1 / 3, 2 / 3])
+    for name, chosen in (("area small", areas <= cuts[0]), ("area medium", (areas > cuts[0]) & (areas <= cuts[1])),
+                         ("area large", areas > cuts[1])):
+        groups[name] = np.flatnonzero(chosen)
+    for name, rows in groups.items():
+        if len(rows):
+            print(json.dumps(group_line(name, rows, rewards, episodes)))
+
+
+if __name__ == "__main__":
+    main()
