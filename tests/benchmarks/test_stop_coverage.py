@@ -279,6 +279,7 @@ def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
     assert rows["decisions 0-14"]["decisions"] == 20 and rows["decisions 15-29"]["decisions"] == 5
     assert "decisions 30-" not in rows  # empty
     assert sum(rows[g]["decisions"] for g in rows if g.startswith("area ")) == 25
+    assert rows["frontiers 1-7"]["decisions"] == 25 and "frontiers 8-9" not in rows  # 3 frontiers each
     for row in rows.values():
         assert row["em"] == pytest.approx(1.0)
         for column in ("greedy", "expected"):
@@ -288,3 +289,5 @@ def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
     assert code == 2 and "no dataset.json" in err.strip().splitlines()[-1]
     code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--bands", "5", "3"], capsys)
     assert code == 2 and "--bands 5 3" in err.strip().splitlines()[-1]
+    code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--frontiers", "0", "3"], capsys)
+    assert code == 2 and "--frontiers 0 3" in err.strip().splitlines()[-1]

@@ -10,9 +10,9 @@ decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_be
 
 with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
-``by_kind.py``). Groups are post hoc: descriptive only (plan.md, session 55). One JSON line per group.
+``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). One JSON line per group.
 
-    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30]
+    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
 """
 
 from __future__ import annotations
@@ -96,7 +96,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--actor", default=None, help="actor file (default: the shipped policy)")
     parser.add_argument("--bands", type=int, nargs="+", default=[0, 15, 30],
                         help="first decision index of each band, ascending from 0")
+    parser.add_argument("--frontiers", type=int, nargs="+", default=[1, 8, 10],
+                        help="smallest action-set size of each group, ascending from 1")
     args = parser.parse_args(argv)
+    if args.frontiers[0] != 1 or any(b <= a for a, b in zip(args.frontiers, args.frontiers[1:])):
+        parser.error(f"--frontiers {' '.join(map(str, args.frontiers))}: give ascending sizes starting at 1")
     if args.bands[0] != 0 or any(b <= a for a, b in zip(args.bands, args.bands[1:])):
         parser.error(f"--bands {' '.join(map(str, args.bands))}: give ascending indices starting at 0")
     if not (args.dataset / "dataset.json").is_file():
@@ -126,6 +130,10 @@ def main(argv: list[str] | None = None) -> None:
     for name, chosen in (("area small", areas <= cuts[0]), ("area medium", (areas > cuts[0]) & (areas <= cuts[1])),
                          ("area large", areas > cuts[1])):
         groups[name] = np.flatnonzero(chosen)
+    frontiers = stored["action_mask"].sum(-1).numpy()
+    for low, high in zip(args.frontiers, [*args.frontiers[1:], np.inf]):
+        groups[f"frontiers {low}-{'' if high == np.inf else int(high) - 1}"] = np.flatnonzero(
+            (frontiers >= low) & (frontiers < high))
     for name, rows in groups.items():
         if len(rows):
             print(json.dumps(group_line(name, rows, rewards, episodes)))
