@@ -10,7 +10,8 @@ decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_be
 
 with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
-``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). One JSON line per group.
+``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
+the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). One JSON line per group.
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
 """
