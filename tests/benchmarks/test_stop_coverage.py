@@ -246,7 +246,7 @@ def test_one_step_gap_and_episode_index_by_hand():
 def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
     """On a made-up dataset (two episodes of 20 and 5 decisions): EM's stored choice closes exactly the whole gap in
     every group, the bands and area groups partition the decisions, every interval holds its point; a folder that
-    is no dataset and bad bands are refused in one line."""
+    is no dataset, bad bands or frontier groups and a missing actor file are refused in one line."""
     import torch
     from tensordict import TensorDict
 
@@ -291,3 +291,5 @@ def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
     assert code == 2 and "--bands 5 3" in err.strip().splitlines()[-1]
     code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--frontiers", "0", "3"], capsys)
     assert code == 2 and "--frontiers 0 3" in err.strip().splitlines()[-1]
+    code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--actor", str(tmp_path / "missing.pt")], capsys)
+    assert code == 2 and "--actor" in err.strip().splitlines()[-1] and "missing.pt" in err.strip().splitlines()[-1]

@@ -111,9 +111,12 @@ def main(argv: list[str] | None = None) -> None:
     from explore_rl.models.actor_file import load_actor
     from explore_rl.trainer.dataset import DecisionDataset
 
-    dataset = DecisionDataset(args.dataset)
-    actor, actor_file = load_actor(args.actor)
+    try:
+        actor, actor_file = load_actor(args.actor)
+    except ValueError as error:  # CheckpointError: missing, unreadable or not an actor, in one line
+        parser.error(f"--actor {error}")
     actor.eval()
+    dataset = DecisionDataset(args.dataset)
     columns = dataset.columns_for(feature_names(actor_file.feature_set))
     rewards = rewards_of(dataset, actor, columns)
     stored = dataset.rows()
