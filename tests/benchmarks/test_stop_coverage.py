@@ -4,7 +4,8 @@ against ratios built into made-up explorations. phases.py: the learned / EM rati
 closures per metre and open frontiers in each coverage band, against ratios built in. line.py: each variant's
 distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. divergence.py: the
 first decision where two runs part, and the graph size there, on made-up trials. one_step.py: the pooled gap and the
-episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). Bad arguments
+episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). late_probe.py:
+fine-tunes on the arm's rows of that dataset only, held-out layouts never. Bad arguments
 refused in one line."""
 
 from __future__ import annotations
@@ -243,22 +244,15 @@ def test_one_step_gap_and_episode_index_by_hand():
     assert one_step.decision_index(episodes).tolist() == [0, 1, 2, 0, 1, 0]
 
 
-def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
-    """On a made-up dataset (two episodes of 20 and 5 decisions): EM's stored choice closes exactly the whole gap in
-    every group, the bands and area groups partition the decisions, every interval holds its point; a folder that
-    is no dataset, bad bands or frontier groups and a missing actor file are refused in one line."""
+def made_up_dataset(path, features: list[str]):
+    """A dataset of two episodes: layout 4 with 20 decisions, layout 3 (held out) with 5; 3 frontiers each, random
+    rewards, EM's stored choice the best of them."""
     import torch
     from tensordict import TensorDict
 
-    from explore_rl.config import load_config
-    from explore_rl.graph.features import feature_names
     from explore_rl.trainer.dataset import DatasetSchema, DecisionDataset
-    from tests.policy_files import TINY_MODEL, actor_file
 
-    config = load_config(["graph.features=extended", *TINY_MODEL])
-    actor_path, _ = actor_file(tmp_path / "actor", config)
-    features = feature_names("extended")
-    dataset = DecisionDataset(tmp_path / "data", DatasetSchema(8, 16, list(features), 64))
+    dataset = DecisionDataset(path, DatasetSchema(8, 16, list(features), 64))
     rng = np.random.default_rng(0)
 
     def decision(layout: int, episode: int) -> TensorDict:
@@ -270,9 +264,30 @@ def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
                            "em_action": int(torch.argmax(rewards.masked_fill(~mask, -9.0))),
                            "layout": layout, "episode": episode}, batch_size=[])
 
-    dataset.append([decision(0, 0) for _ in range(20)], scene="building")
-    dataset.append([decision(1, 1) for _ in range(5)], scene="building")
-    code, out, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--actor", str(actor_path)], capsys)
+    dataset.append([decision(4, 0) for _ in range(20)], scene="building")
+    dataset.append([decision(3, 1) for _ in range(5)], scene="building")
+    return dataset
+
+
+@pytest.fixture(scope="module")
+def scored_data(tmp_path_factory):
+    """The made-up dataset and a tiny extended actor file."""
+    from explore_rl.config import load_config
+    from explore_rl.graph.features import feature_names
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    root = tmp_path_factory.mktemp("one_step")
+    actor_path, _ = actor_file(root / "actor", load_config(["graph.features=extended", *TINY_MODEL]))
+    made_up_dataset(root / "data", list(feature_names("extended")))
+    return root, actor_path
+
+
+def test_one_step_scores_an_actor_on_a_dataset(scored_data, capsys):
+    """On the made-up dataset: EM's stored choice closes exactly the whole gap in every group, the bands and area
+    groups partition the decisions, every interval holds its point, ``--held-out`` keeps layout 3's 5 decisions; a
+    folder that is no dataset, bad bands or frontier groups and a missing actor file are refused in one line."""
+    root, actor_path = scored_data
+    code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path)], capsys)
     assert code == 0, err
     rows = {row["group"]: row for row in json_lines(out)}
     assert rows["all"]["decisions"] == 25 and rows["all"]["episodes"] == 2
@@ -285,11 +300,39 @@ def test_one_step_scores_an_actor_on_a_dataset(tmp_path, capsys):
         for column in ("greedy", "expected"):
             low, high = row[f"{column}_ci95"]
             assert low - 1e-9 <= row[column] <= high + 1e-9 and -10 < row[column] <= 1.0 + 1e-9
-    code, _, err = run_main(ONE_STEP, [str(tmp_path)], capsys)
+    code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--held-out"], capsys)
+    held = {row["group"]: row for row in json_lines(out)}
+    assert code == 0 and held["all"]["decisions"] == held["decisions 0-14"]["decisions"] == 5
+    assert held["all"]["episodes"] == 1 and "decisions 15-29" not in held
+    code, _, err = run_main(ONE_STEP, [str(root)], capsys)
     assert code == 2 and "no dataset.json" in err.strip().splitlines()[-1]
-    code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--bands", "5", "3"], capsys)
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--bands", "5", "3"], capsys)
     assert code == 2 and "--bands 5 3" in err.strip().splitlines()[-1]
-    code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--frontiers", "0", "3"], capsys)
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--frontiers", "0", "3"], capsys)
     assert code == 2 and "--frontiers 0 3" in err.strip().splitlines()[-1]
-    code, _, err = run_main(ONE_STEP, [str(tmp_path / "data"), "--actor", str(tmp_path / "missing.pt")], capsys)
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(root / "missing.pt")], capsys)
     assert code == 2 and "--actor" in err.strip().splitlines()[-1] and "missing.pt" in err.strip().splitlines()[-1]
+
+
+LATE_PROBE = "benchmarks/results/stop_coverage/late_probe.py"
+
+
+@pytest.mark.parametrize(("arm", "decisions"), [("all", 20), ("late", 10)])
+def test_late_probe_fine_tunes_on_the_arms_rows_only(scored_data, capsys, arm, decisions):
+    """late_probe.py trains on layout 4's decisions only (layout 3 is held out): all 20, or the 10 from decision 10
+    on; the written actor file loads and reads the same features; bad arguments are refused in one line."""
+    from explore_rl.models.actor_file import read_actor_file
+
+    root, actor_path = scored_data
+    out = root / f"{arm}.pt"
+    code, stdout, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", arm, "--actor", str(actor_path),
+                                              "--late-from", "10", "--steps", "2", "--out", str(out)], capsys)
+    assert code == 0, err
+    result = json_lines(stdout)[-1]
+    assert result["arm"] == arm and result["decisions"] == decisions and result["steps"] == 2
+    assert read_actor_file(out).feature_set == "extended"
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "late", "--actor", str(actor_path),
+                                         "--late-from", "99", "--out", str(out)], capsys)
+    assert code == 2 and "no decision for arm late" in err.strip().splitlines()[-1]
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", arm, "--steps", "0", "--out", str(out)], capsys)
+    assert code == 2 and "--steps 0" in err.strip().splitlines()[-1]

@@ -11,9 +11,10 @@ decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_be
 with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
-the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). One JSON line per group.
+the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
+layouts no fine-tuning of ``late_probe.py`` saw. One JSON line per group.
 
-    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
+    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10] [--held-out]
 """
 
 from __future__ import annotations
@@ -30,6 +31,12 @@ from by_kind import plan_stats  # noqa: E402
 
 BOOTSTRAP = 2000
 CHUNK = 64
+HELD_OUT_MODULUS, HELD_OUT_REMAINDER = 4, 3  # layouts held out of training, as sessions 42-45's probes
+
+
+def held_out(layouts: np.ndarray) -> np.ndarray:
+    """Which rows' layouts are held out of any fine-tuning (``layout % 4 == 3``)."""
+    return np.asarray(layouts) % HELD_OUT_MODULUS == HELD_OUT_REMAINDER
 
 
 def gap_closed(picked: np.ndarray, uniform: np.ndarray, best: np.ndarray) -> float:
@@ -97,6 +104,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--actor", default=None, help="actor file (default: the shipped policy)")
     parser.add_argument("--bands", type=int, nargs="+", default=[0, 15, 30],
                         help="first decision index of each band, ascending from 0")
+    parser.add_argument("--held-out", action="store_true",
+                        help="score only the layouts held out of fine-tuning (layout % 4 == 3; late_probe.py)")
     parser.add_argument("--frontiers", type=int, nargs="+", default=[1, 8, 10],
                         help="smallest action-set size of each group, ascending from 1")
     args = parser.parse_args(argv)
@@ -122,14 +131,17 @@ def main(argv: list[str] | None = None) -> None:
     stored = dataset.rows()
     episodes = np.stack([stored["layout"].numpy(), stored["episode"].numpy()], axis=1)
     index = decision_index(episodes)
-    groups = {"all": np.arange(len(index))}
+    scored = held_out(episodes[:, 0]) if args.held_out else np.ones(len(index), dtype=bool)
+    if not scored.any():
+        parser.error(f"{args.dataset}: no held-out layout (layout % 4 == 3) in the dataset")
+    groups = {"all": np.flatnonzero(scored)}
     edges = [*args.bands, np.inf]
     for low, high in zip(edges, edges[1:]):
         groups[f"decisions {low}-{'' if high == np.inf else int(high) - 1}"] = np.flatnonzero(
             (index >= low) & (index < high))
-    layouts = sorted(set(int(s) for s in episodes[:, 0]))
+    layouts = sorted(set(int(s) for s in episodes[scored, 0]))
     area = {seed: stats["area"] for seed, stats in plan_stats(layouts).items()}
-    areas = np.array([area[int(s)] for s in episodes[:, 0]])
+    areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
     cuts = np.quantile([area[s] for s in layouts], [1 / 3, 2 / 3])
     for name, chosen in (("area small", areas <= cuts[0]), ("area medium", (areas > cuts[0]) & (areas <= cuts[1])),
                          ("area large", areas > cuts[1])):
@@ -139,6 +151,7 @@ def main(argv: list[str] | None = None) -> None:
         groups[f"frontiers {low}-{'' if high == np.inf else int(high) - 1}"] = np.flatnonzero(
             (frontiers >= low) & (frontiers < high))
     for name, rows in groups.items():
+        rows = rows[scored[rows]]
         if len(rows):
             print(json.dumps(group_line(name, rows, rewards, episodes)))
 

@@ -1,0 +1,83 @@
+"""Is the late band data-bound? Fine-tune an actor offline on all, or only the late, decisions of a dataset.
+
+From an actor file (the shipped one by default), ``--steps`` offline steps of EM-choice distillation (not A2C;
+``explore_rl.trainer.offline.train_offline``) on the decisions of a ``benchmarks/collect_decisions.py`` dataset whose
+layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
+or only those from decision ``--late-from`` of their episode on (``--arm late``). Writes the fine-tuned actor file;
+``one_step.py --held-out --actor FILE`` then scores it by band on the held-out layouts (plan.md, session 55). One JSON
+line: arm, training decisions, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
+
+    python benchmarks/results/stop_coverage/late_probe.py /work/data/s55_phases --arm late --out /work/runs/s55_late.pt
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
+from one_step import decision_index, held_out  # noqa: E402
+from revisit_probe import greedy_learner  # noqa: E402
+
+SHIPPED = "policies/buildings_sparse_em_choice/actor.pt"
+
+
+def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from: int) -> np.ndarray:
+    """Rows a fine-tuning arm trains on: not held out, and (arm ``late``) from decision ``late_from`` on."""
+    rows = ~held_out(layouts)
+    if arm == "late":
+        rows &= decision_index(episodes) >= late_from
+    return np.flatnonzero(rows)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
+    parser.add_argument("--arm", choices=("all", "late"), required=True)
+    parser.add_argument("--actor", default=SHIPPED, help="the actor file fine-tuned (default: the shipped one)")
+    parser.add_argument("--late-from", type=int, default=30, help="arm late: first decision index trained on")
+    parser.add_argument("--steps", type=int, default=1000)
+    parser.add_argument("--lr", type=float, default=3e-4)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, required=True, help="the fine-tuned actor file to write")
+    args = parser.parse_args(argv)
+    if args.steps < 1 or args.late_from < 0 or not args.lr > 0:
+        parser.error(f"--steps {args.steps} --late-from {args.late_from} --lr {args.lr}: give steps >= 1, "
+                     "late-from >= 0 and a positive lr")
+    if not (args.dataset / "dataset.json").is_file():
+        parser.error(f"{args.dataset}: no dataset.json there; give a folder of benchmarks/collect_decisions.py")
+
+    import torch
+
+    from explore_rl.trainer.dataset import DecisionDataset
+    from explore_rl.trainer.offline import save_offline_actor, train_offline
+
+    try:
+        learner = greedy_learner(args.actor, "algo.distill_target=em_choice", f"algo.lr={args.lr}")
+    except ValueError as error:  # CheckpointError: missing, unreadable or not an actor
+        parser.error(f"--actor {error}")
+    dataset = DecisionDataset(args.dataset)
+    stored = dataset.rows()
+    layouts, episode = stored["layout"].numpy(), stored["episode"].numpy()
+    rows = training_rows(layouts, np.stack([layouts, episode], axis=1), args.arm, args.late_from)
+    if len(rows) == 0:
+        parser.error(f"{args.dataset}: no decision for arm {args.arm} (late-from {args.late_from}) outside the "
+                     "held-out layouts")
+    torch.manual_seed(args.seed)
+    _, result = train_offline(learner.config, dataset, args.steps, index=torch.from_numpy(rows), learner=learner)
+    path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
+                                                  "late_from": args.late_from, "steps": args.steps})
+    tenth = max(1, len(result.losses) // 10)
+    print(json.dumps({"arm": args.arm, "decisions": int(len(rows)), "steps": args.steps,
+                      "seconds": round(result.seconds, 1), "skipped_steps": result.skipped_steps,
+                      "loss_first_tenth": round(float(np.mean(result.losses[:tenth])), 4),
+                      "loss_last_tenth": round(float(np.mean(result.losses[-tenth:])), 4), "out": str(path)}))
+
+
+if __name__ == "__main__":
+    main()
