@@ -31,7 +31,7 @@ from by_kind import plan_stats  # noqa: E402
 
 BOOTSTRAP = 2000
 CHUNK = 64
-HELD_OUT_MODULUS, HELD_OUT_REMAINDER = 4, 3  # layouts held out of training, as sessions 42-45's probes
+HELD_OUT_MODULUS, HELD_OUT_REMAINDER = 4, 3  # held-out layouts: the probe split of stakes_distill/probe.py (sessions 42-45)
 
 
 def held_out(layouts: np.ndarray) -> np.ndarray:
@@ -98,6 +98,28 @@ def group_line(name: str, rows: np.ndarray, rewards: dict[str, np.ndarray], epis
     return line
 
 
+def ranges(starts: list[int]) -> list[tuple[str, float, float]]:
+    """``(label, low, high)`` of the half-open ranges that begin at ``starts`` (the last one open)."""
+    ends = [*starts[1:], np.inf]
+    return [(f"{low}-{'' if high == np.inf else int(high) - 1}", low, high) for low, high in zip(starts, ends)]
+
+
+def decision_groups(index: np.ndarray, areas: np.ndarray, building_areas: list[float], frontiers: np.ndarray,
+                    bands: list[int], sizes: list[int]) -> dict[str, np.ndarray]:
+    """Rows of each group: all; by decision index (``bands``); by area tercile of the buildings (``areas`` per row,
+    terciles of ``building_areas``; a NaN row is in none); by the number of frontiers (``sizes``)."""
+    groups = {"all": np.arange(len(index))}
+    for label, low, high in ranges(bands):
+        groups[f"decisions {label}"] = np.flatnonzero((index >= low) & (index < high))
+    cuts = np.quantile(building_areas, [1 / 3, 2 / 3])
+    for name, chosen in (("area small", areas <= cuts[0]), ("area medium", (areas > cuts[0]) & (areas <= cuts[1])),
+                         ("area large", areas > cuts[1])):
+        groups[name] = np.flatnonzero(chosen)
+    for label, low, high in ranges(sizes):
+        groups[f"frontiers {label}"] = np.flatnonzero((frontiers >= low) & (frontiers < high))
+    return groups
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
@@ -134,22 +156,11 @@ def main(argv: list[str] | None = None) -> None:
     scored = held_out(episodes[:, 0]) if args.held_out else np.ones(len(index), dtype=bool)
     if not scored.any():
         parser.error(f"{args.dataset}: no held-out layout (layout % 4 == 3) in the dataset")
-    groups = {"all": np.flatnonzero(scored)}
-    edges = [*args.bands, np.inf]
-    for low, high in zip(edges, edges[1:]):
-        groups[f"decisions {low}-{'' if high == np.inf else int(high) - 1}"] = np.flatnonzero(
-            (index >= low) & (index < high))
     layouts = sorted(set(int(s) for s in episodes[scored, 0]))
     area = {seed: stats["area"] for seed, stats in plan_stats(layouts).items()}
     areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
-    cuts = np.quantile([area[s] for s in layouts], [1 / 3, 2 / 3])
-    for name, chosen in (("area small", areas <= cuts[0]), ("area medium", (areas > cuts[0]) & (areas <= cuts[1])),
-                         ("area large", areas > cuts[1])):
-        groups[name] = np.flatnonzero(chosen)
     frontiers = stored["action_mask"].sum(-1).numpy()
-    for low, high in zip(args.frontiers, [*args.frontiers[1:], np.inf]):
-        groups[f"frontiers {low}-{'' if high == np.inf else int(high) - 1}"] = np.flatnonzero(
-            (frontiers >= low) & (frontiers < high))
+    groups = decision_groups(index, areas, [area[s] for s in layouts], frontiers, args.bands, args.frontiers)
     for name, rows in groups.items():
         rows = rows[scored[rows]]
         if len(rows):
