@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # plan.md (session 55, last addendum): both fine-tuning arms, then the shipped actor and both arms on the held-out
 # layouts by band (one_step.py --held-out): late_probe_s55.log, one_step_held_out_{shipped,all,late}.log
-cd /work/main
+set -e
+cd "$(dirname "$0")/../../.."  # the repository
 S=benchmarks/results/stop_coverage
 for arm in all late; do
   nice -n 5 .venv/bin/python $S/late_probe.py /work/data/s55_phases --arm $arm --out /work/runs/s55_late_probe_$arm.pt
