@@ -306,6 +306,8 @@ def test_one_step_scores_an_actor_on_a_dataset(scored_data, capsys):
     assert held["all"]["episodes"] == 1 and "decisions 15-29" not in held
     code, _, err = run_main(ONE_STEP, [str(root)], capsys)
     assert code == 2 and "no dataset.json" in err.strip().splitlines()[-1]
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--versus", str(root / "missing.pt")], capsys)
+    assert code == 2 and "--versus" in err.strip().splitlines()[-1]
     code, _, err = run_main(ONE_STEP, [str(root / "data"), "--bands", "5", "3"], capsys)
     assert code == 2 and "--bands 5 3" in err.strip().splitlines()[-1]
     code, _, err = run_main(ONE_STEP, [str(root / "data"), "--frontiers", "0", "3"], capsys)
@@ -336,3 +338,30 @@ def test_late_probe_fine_tunes_on_the_arms_rows_only(scored_data, capsys, arm, d
     assert code == 2 and "no decision for arm late" in err.strip().splitlines()[-1]
     code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", arm, "--steps", "0", "--out", str(out)], capsys)
     assert code == 2 and "--steps 0" in err.strip().splitlines()[-1]
+
+
+def test_one_step_pairs_two_actors_on_the_same_decisions(scored_data, tmp_path, capsys):
+    """``--versus``: an actor against itself differs by exactly 0; against another, the difference is the two
+    actors' own gaps from separate runs, and its paired interval holds it."""
+    from explore_rl.config import load_config
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    root, first = scored_data
+    second, _ = actor_file(tmp_path / "second", load_config(["graph.features=extended", *TINY_MODEL]), seed=1)
+    data = str(root / "data")
+
+    def groups(*args: str) -> dict:
+        code, out, err = run_main(ONE_STEP, [data, *args], capsys)
+        assert code == 0, err
+        return {row["group"]: row for row in json_lines(out)}
+
+    same = groups("--actor", str(first), "--versus", str(first))["all"]
+    assert same["greedy_minus_versus"] == 0.0 and same["greedy_minus_versus_ci95"] == [0.0, 0.0]
+    alone_first, alone_second = groups("--actor", str(first))["all"], groups("--actor", str(second))["all"]
+    paired = groups("--actor", str(first), "--versus", str(second))["all"]
+    for column in ("greedy", "expected"):
+        difference = paired[f"{column}_minus_versus"]
+        assert difference == pytest.approx(alone_first[column] - alone_second[column], abs=2e-4)
+        low, high = paired[f"{column}_minus_versus_ci95"]
+        assert low - 1e-9 <= difference <= high + 1e-9
+    assert "em_minus_versus" not in paired

@@ -12,9 +12,11 @@ with a bootstrap 95 % interval over episodes. Groups: all decisions; by the deci
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
 the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
-layouts no fine-tuning of ``late_probe.py`` saw. One JSON line per group.
+layouts no fine-tuning of ``late_probe.py`` saw; ``--versus FILE``: also each group's difference to another actor, with a
+bootstrap that draws the same episodes for both (paired). One JSON line per group.
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10] [--held-out]
+        [--versus FILE]
 """
 
 from __future__ import annotations
@@ -79,22 +81,31 @@ def rewards_of(dataset, actor, columns: list[int]) -> dict[str, np.ndarray]:
 
 
 def group_line(name: str, rows: np.ndarray, rewards: dict[str, np.ndarray], episodes: np.ndarray,
-               seed: int = 0) -> dict:
-    """The group's gaps and their bootstrap intervals over the episodes it holds."""
+               versus: dict[str, np.ndarray] | None = None, seed: int = 0) -> dict:
+    """The group's gaps and their bootstrap intervals over the episodes it holds; with ``versus`` (another actor's
+    rewards on the same decisions) also the difference of the two actors' gaps, paired: the same episodes drawn."""
     keys = [tuple(e) for e in episodes[rows]]
     unique = sorted(set(keys))
     members = [rows[[k == key for k in keys]] for key in unique]
     rng = np.random.default_rng(seed)
     line: dict = {"group": name, "decisions": int(len(rows)), "episodes": len(unique)}
+
+    def gap(source: dict[str, np.ndarray], column: str, at: np.ndarray) -> float:
+        return gap_closed(source[column][at], source["uniform"][at], source["best"][at])
+
     for column in ("greedy", "expected", "em"):
-        value = gap_closed(rewards[column][rows], rewards["uniform"][rows], rewards["best"][rows])
-        draws = []
+        draws, differences = [], []
         for _ in range(BOOTSTRAP):
             pick = np.concatenate([members[i] for i in rng.integers(0, len(members), len(members))])
-            draws.append(gap_closed(rewards[column][pick], rewards["uniform"][pick], rewards["best"][pick]))
-        low, high = np.nanquantile(draws, [0.025, 0.975])
-        line[column] = round(value, 4)
-        line[f"{column}_ci95"] = [round(float(low), 4), round(float(high), 4)]
+            draws.append(gap(rewards, column, pick))
+            if versus is not None:
+                differences.append(draws[-1] - gap(versus, column, pick))
+        line[column] = round(gap(rewards, column, rows), 4)
+        line[f"{column}_ci95"] = [round(float(q), 4) for q in np.nanquantile(draws, [0.025, 0.975])]
+        if versus is not None and column != "em":
+            line[f"{column}_minus_versus"] = round(gap(rewards, column, rows) - gap(versus, column, rows), 4)
+            line[f"{column}_minus_versus_ci95"] = [round(float(q), 4)
+                                                   for q in np.nanquantile(differences, [0.025, 0.975])]
     return line
 
 
@@ -128,6 +139,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="first decision index of each band, ascending from 0")
     parser.add_argument("--held-out", action="store_true",
                         help="score only the layouts held out of fine-tuning (layout % 4 == 3; late_probe.py)")
+    parser.add_argument("--versus", default=None,
+                        help="another actor file: also each group's gap difference to it, paired by episode")
     parser.add_argument("--frontiers", type=int, nargs="+", default=[1, 8, 10],
                         help="smallest action-set size of each group, ascending from 1")
     args = parser.parse_args(argv)
@@ -142,14 +155,18 @@ def main(argv: list[str] | None = None) -> None:
     from explore_rl.models.actor_file import load_actor
     from explore_rl.trainer.dataset import DecisionDataset
 
-    try:
-        actor, actor_file = load_actor(args.actor)
-    except ValueError as error:  # CheckpointError: missing, unreadable or not an actor, in one line
-        parser.error(f"--actor {error}")
-    actor.eval()
+    actors = {}
+    for flag, path in (("--actor", args.actor), ("--versus", args.versus)):
+        if flag == "--versus" and path is None:
+            continue
+        try:
+            actors[flag] = load_actor(path)
+        except ValueError as error:  # CheckpointError: missing, unreadable or not an actor, in one line
+            parser.error(f"{flag} {error}")
     dataset = DecisionDataset(args.dataset)
-    columns = dataset.columns_for(feature_names(actor_file.feature_set))
-    rewards = rewards_of(dataset, actor, columns)
+    scores = {flag: rewards_of(dataset, actor.eval(), dataset.columns_for(feature_names(file.feature_set)))
+              for flag, (actor, file) in actors.items()}
+    rewards, versus = scores["--actor"], scores.get("--versus")
     stored = dataset.rows()
     episodes = np.stack([stored["layout"].numpy(), stored["episode"].numpy()], axis=1)
     index = decision_index(episodes)
@@ -164,7 +181,7 @@ def main(argv: list[str] | None = None) -> None:
     for name, rows in groups.items():
         rows = rows[scored[rows]]
         if len(rows):
-            print(json.dumps(group_line(name, rows, rewards, episodes)))
+            print(json.dumps(group_line(name, rows, rewards, episodes, versus)))
 
 
 if __name__ == "__main__":
