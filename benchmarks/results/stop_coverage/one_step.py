@@ -29,7 +29,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 from by_kind import plan_stats  # noqa: E402
+from common import cluster_bootstrap  # noqa: E402  (the episode is what is resampled)
 
 BOOTSTRAP = 2000
 CHUNK = 64
@@ -81,31 +83,24 @@ def rewards_of(dataset, actor, columns: list[int]) -> dict[str, np.ndarray]:
 
 
 def group_line(name: str, rows: np.ndarray, rewards: dict[str, np.ndarray], episodes: np.ndarray,
-               versus: dict[str, np.ndarray] | None = None, seed: int = 0) -> dict:
-    """The group's gaps and their bootstrap intervals over the episodes it holds; with ``versus`` (another actor's
-    rewards on the same decisions) also the difference of the two actors' gaps, paired: the same episodes drawn."""
-    keys = [tuple(e) for e in episodes[rows]]
-    unique = sorted(set(keys))
-    members = [rows[[k == key for k in keys]] for key in unique]
-    rng = np.random.default_rng(seed)
-    line: dict = {"group": name, "decisions": int(len(rows)), "episodes": len(unique)}
+               versus: dict[str, np.ndarray] | None = None) -> dict:
+    """The group's gaps and their bootstrap intervals over the episodes it holds (``common.cluster_bootstrap``);
+    with ``versus`` (another actor's rewards on the same decisions) also the difference of the two actors' gaps,
+    paired: the same draw of episodes for both."""
+    _, episode_of = np.unique(episodes[rows], axis=0, return_inverse=True)
+    members = [rows[episode_of.ravel() == e] for e in range(episode_of.max() + 1)]
+    line: dict = {"group": name, "decisions": int(len(rows)), "episodes": len(members)}
 
     def gap(source: dict[str, np.ndarray], column: str, at: np.ndarray) -> float:
         return gap_closed(source[column][at], source["uniform"][at], source["best"][at])
 
     for column in ("greedy", "expected", "em"):
-        draws, differences = [], []
-        for _ in range(BOOTSTRAP):
-            pick = np.concatenate([members[i] for i in rng.integers(0, len(members), len(members))])
-            draws.append(gap(rewards, column, pick))
-            if versus is not None:
-                differences.append(draws[-1] - gap(versus, column, pick))
         line[column] = round(gap(rewards, column, rows), 4)
-        line[f"{column}_ci95"] = [round(float(q), 4) for q in np.nanquantile(draws, [0.025, 0.975])]
+        line[f"{column}_ci95"] = cluster_bootstrap(lambda at: gap(rewards, column, at), members, draws=BOOTSTRAP)
         if versus is not None and column != "em":
             line[f"{column}_minus_versus"] = round(gap(rewards, column, rows) - gap(versus, column, rows), 4)
-            line[f"{column}_minus_versus_ci95"] = [round(float(q), 4)
-                                                   for q in np.nanquantile(differences, [0.025, 0.975])]
+            line[f"{column}_minus_versus_ci95"] = cluster_bootstrap(
+                lambda at: gap(rewards, column, at) - gap(versus, column, at), members, draws=BOOTSTRAP)
     return line
 
 
