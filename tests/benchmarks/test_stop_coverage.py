@@ -5,7 +5,7 @@ closures per metre and open frontiers in each coverage band, against ratios buil
 distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. divergence.py: the
 first decision where two runs part, and the graph size there, on made-up trials. one_step.py: the pooled gap and the
 episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). late_probe.py:
-fine-tunes on the arm's rows of that dataset only, held-out layouts never. Bad arguments
+fine-tunes on the arm's rows of that dataset only (late rows repeated on request), held-out layouts never. Bad arguments
 refused in one line."""
 
 from __future__ import annotations
@@ -332,12 +332,33 @@ def test_late_probe_fine_tunes_on_the_arms_rows_only(scored_data, capsys, arm, d
     assert code == 0, err
     result = json_lines(stdout)[-1]
     assert result["arm"] == arm and result["decisions"] == decisions and result["steps"] == 2
+    assert result["drawn_rows"] == decisions and result["late_repeat"] == 1
     assert read_actor_file(out).feature_set == "extended"
     code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "late", "--actor", str(actor_path),
                                          "--late-from", "99", "--out", str(out)], capsys)
     assert code == 2 and "no decision for arm late" in err.strip().splitlines()[-1]
     code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", arm, "--steps", "0", "--out", str(out)], capsys)
     assert code == 2 and "--steps 0" in err.strip().splitlines()[-1]
+
+
+def test_late_probe_repeats_the_late_rows(scored_data, capsys):
+    """``--late-repeat 3``: layout 4's 20 decisions, its 10 late ones twice more (40 rows drawn from); arm late
+    repeats only late rows; a repeat below 1 is refused in one line."""
+    training_rows = load_script(LATE_PROBE).training_rows
+    layouts = np.array([3] * 4 + [4] * 6)
+    episodes = np.stack([layouts, np.zeros(10, dtype=int)], axis=1)  # decisions 0..3 of layout 3, 0..5 of layout 4
+    assert sorted(training_rows(layouts, episodes, "all", 3, 2)) == [4, 5, 6, 7, 7, 8, 8, 9, 9]
+    assert sorted(training_rows(layouts, episodes, "late", 3, 2)) == [7, 7, 8, 8, 9, 9]
+    root, actor_path = scored_data
+    code, stdout, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--actor", str(actor_path),
+                                              "--late-from", "10", "--late-repeat", "3", "--steps", "2",
+                                              "--out", str(root / "repeat.pt")], capsys)
+    assert code == 0, err
+    result = json_lines(stdout)[-1]
+    assert result["decisions"] == 20 and result["drawn_rows"] == 40 and result["late_repeat"] == 3
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--late-repeat", "0",
+                                         "--out", str(root / "repeat.pt")], capsys)
+    assert code == 2 and "--late-repeat 0" in err.strip().splitlines()[-1]
 
 
 def test_one_step_pairs_two_actors_on_the_same_decisions(scored_data, tmp_path, capsys):

@@ -3,7 +3,8 @@
 From an actor file (the shipped one by default), ``--steps`` offline steps of EM-choice distillation (not A2C;
 ``explore_rl.trainer.offline.train_offline``) on the decisions of a ``benchmarks/collect_decisions.py`` dataset whose
 layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
-or only those from decision ``--late-from`` of their episode on (``--arm late``). Writes the fine-tuned actor file;
+or only those from decision ``--late-from`` of their episode on (``--arm late``); ``--late-repeat N`` draws the late
+ones N times as often (session 56). Writes the fine-tuned actor file;
 ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out layouts (plan.md, session 55). One JSON
 line: arm, training decisions, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
 
@@ -27,12 +28,15 @@ from revisit_probe import greedy_learner  # noqa: E402
 SHIPPED = "policies/buildings_sparse_em_choice/actor.pt"
 
 
-def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from: int) -> np.ndarray:
-    """Rows a fine-tuning arm trains on: not held out, and (arm ``late``) from decision ``late_from`` on."""
-    rows = ~held_out(layouts)
+def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from: int,
+                  late_repeat: int = 1) -> np.ndarray:
+    """Rows a fine-tuning arm draws from: not held out, and (arm ``late``) from decision ``late_from`` on. With
+    ``late_repeat`` N the late rows appear N times, so uniform draws take them N times as often."""
+    kept = ~held_out(layouts)
+    late = decision_index(episodes) >= late_from
     if arm == "late":
-        rows &= decision_index(episodes) >= late_from
-    return np.flatnonzero(rows)
+        kept &= late
+    return np.concatenate([np.flatnonzero(kept)] + [np.flatnonzero(kept & late)] * (late_repeat - 1))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -41,14 +45,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--arm", choices=("all", "late"), required=True)
     parser.add_argument("--actor", default=SHIPPED, help="the actor file fine-tuned (default: the shipped one)")
     parser.add_argument("--late-from", type=int, default=30, help="arm late: first decision index trained on")
+    parser.add_argument("--late-repeat", type=int, default=1,
+                        help="draw the late decisions this many times as often (1 = uniform)")
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--lr", type=float, default=3e-4)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, required=True, help="the fine-tuned actor file to write")
     args = parser.parse_args(argv)
-    if args.steps < 1 or args.late_from < 0 or not args.lr > 0:
-        parser.error(f"--steps {args.steps} --late-from {args.late_from} --lr {args.lr}: give steps >= 1, "
-                     "late-from >= 0 and a positive lr")
+    if args.steps < 1 or args.late_from < 0 or args.late_repeat < 1 or not args.lr > 0:
+        parser.error(f"--steps {args.steps} --late-from {args.late_from} --late-repeat {args.late_repeat} --lr "
+                     f"{args.lr}: give steps >= 1, late-from >= 0, late-repeat >= 1 and a positive lr")
     if not (args.dataset / "dataset.json").is_file():
         parser.error(f"{args.dataset}: no dataset.json there; give a folder of benchmarks/collect_decisions.py")
 
@@ -64,16 +70,18 @@ def main(argv: list[str] | None = None) -> None:
     dataset = DecisionDataset(args.dataset)
     stored = dataset.rows()
     layouts, episode = stored["layout"].numpy(), stored["episode"].numpy()
-    rows = training_rows(layouts, np.stack([layouts, episode], axis=1), args.arm, args.late_from)
+    rows = training_rows(layouts, np.stack([layouts, episode], axis=1), args.arm, args.late_from, args.late_repeat)
     if len(rows) == 0:
         parser.error(f"{args.dataset}: no decision for arm {args.arm} (late-from {args.late_from}) outside the "
                      "held-out layouts")
     torch.manual_seed(args.seed)
     _, result = train_offline(learner.config, dataset, args.steps, index=torch.from_numpy(rows), learner=learner)
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
-                                                  "late_from": args.late_from, "steps": args.steps})
+                                                  "late_from": args.late_from, "late_repeat": args.late_repeat,
+                                                  "steps": args.steps})
     tenth = max(1, len(result.losses) // 10)
-    print(json.dumps({"arm": args.arm, "decisions": int(len(rows)), "steps": args.steps,
+    print(json.dumps({"arm": args.arm, "decisions": int(len(np.unique(rows))), "late_repeat": args.late_repeat,
+                      "drawn_rows": int(len(rows)), "steps": args.steps,
                       "seconds": round(result.seconds, 1), "skipped_steps": result.skipped_steps,
                       "loss_first_tenth": round(float(np.mean(result.losses[:tenth])), 4),
                       "loss_last_tenth": round(float(np.mean(result.losses[-tenth:])), 4), "out": str(path)}))
