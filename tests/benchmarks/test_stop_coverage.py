@@ -359,6 +359,23 @@ def test_late_probe_repeats_the_late_rows(scored_data, capsys):
     code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--late-repeat", "0",
                                          "--out", str(root / "repeat.pt")], capsys)
     assert code == 2 and "--late-repeat 0" in err.strip().splitlines()[-1]
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--fraction", "1.5",
+                                         "--out", str(root / "repeat.pt")], capsys)
+    assert code == 2 and "--fraction 1.5" in err.strip().splitlines()[-1]
+
+
+def test_late_probe_keeps_whole_episodes_for_a_fraction():
+    """``episode_fraction``: half of four episodes keeps two of them whole, the same two for the same seed; a tiny
+    fraction still keeps one episode."""
+    episode_fraction = load_script(LATE_PROBE).episode_fraction
+    episodes = np.repeat(np.array([[4, 0], [4, 1], [8, 0], [8, 1]]), 3, axis=0)  # 4 episodes of 3 decisions
+    rows = np.arange(12)
+    half = episode_fraction(rows, episodes, 0.5, seed=0)
+    kept = {tuple(key) for key in episodes[half]}
+    assert len(half) == 6 and len(kept) == 2
+    assert all(len(half[(episodes[half] == key).all(axis=1)]) == 3 for key in kept)  # whole episodes
+    assert np.array_equal(half, episode_fraction(rows, episodes, 0.5, seed=0))
+    assert len(episode_fraction(rows, episodes, 0.01, seed=1)) == 3
 
 
 def test_one_step_pairs_two_actors_on_the_same_decisions(scored_data, tmp_path, capsys):

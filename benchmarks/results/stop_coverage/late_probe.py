@@ -4,7 +4,7 @@ From an actor file (the shipped one by default), ``--steps`` offline steps of EM
 ``explore_rl.trainer.offline.train_offline``) on the decisions of a ``benchmarks/collect_decisions.py`` dataset whose
 layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
 or only those from decision ``--late-from`` of their episode on (``--arm late``); ``--late-repeat N`` draws the late
-ones N times as often (session 56). Writes the fine-tuned actor file;
+ones N times as often, ``--fraction F`` keeps a seeded fraction of the episodes (session 56). Writes the fine-tuned actor file;
 ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out layouts (plan.md, session 55). One JSON
 line: arm, training decisions, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
 
@@ -39,6 +39,14 @@ def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from
     return np.concatenate([np.flatnonzero(kept)] + [np.flatnonzero(kept & late)] * (late_repeat - 1))
 
 
+def episode_fraction(rows: np.ndarray, episodes: np.ndarray, fraction: float, seed: int) -> np.ndarray:
+    """The ``rows`` of a seeded random ``fraction`` of the episodes they hold (at least one episode): a smaller
+    dataset of whole episodes, for a learning curve."""
+    keys, episode_of = np.unique(episodes[rows], axis=0, return_inverse=True)
+    chosen = np.random.default_rng(seed).permutation(len(keys))[:max(1, round(fraction * len(keys)))]
+    return rows[np.isin(episode_of.ravel(), chosen)]
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
@@ -47,11 +55,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--late-from", type=int, default=30, help="arm late: first decision index trained on")
     parser.add_argument("--late-repeat", type=int, default=1,
                         help="draw the late decisions this many times as often (1 = uniform)")
+    parser.add_argument("--fraction", type=float, default=1.0,
+                        help="train on a seeded random fraction of the arm's episodes (a learning curve)")
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--lr", type=float, default=3e-4)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, required=True, help="the fine-tuned actor file to write")
     args = parser.parse_args(argv)
+    if not 0 < args.fraction <= 1:
+        parser.error(f"--fraction {args.fraction}: give a fraction in (0, 1]")
     if args.steps < 1 or args.late_from < 0 or args.late_repeat < 1 or not args.lr > 0:
         parser.error(f"--steps {args.steps} --late-from {args.late_from} --late-repeat {args.late_repeat} --lr "
                      f"{args.lr}: give steps >= 1, late-from >= 0, late-repeat >= 1 and a positive lr")
@@ -70,7 +82,10 @@ def main(argv: list[str] | None = None) -> None:
     dataset = DecisionDataset(args.dataset)
     stored = dataset.rows()
     layouts, episode = stored["layout"].numpy(), stored["episode"].numpy()
-    rows = training_rows(layouts, np.stack([layouts, episode], axis=1), args.arm, args.late_from, args.late_repeat)
+    episodes = np.stack([layouts, episode], axis=1)
+    rows = training_rows(layouts, episodes, args.arm, args.late_from, args.late_repeat)
+    if args.fraction < 1:
+        rows = episode_fraction(rows, episodes, args.fraction, args.seed)
     if len(rows) == 0:
         parser.error(f"{args.dataset}: no decision for arm {args.arm} (late-from {args.late_from}) outside the "
                      "held-out layouts")
@@ -78,9 +93,11 @@ def main(argv: list[str] | None = None) -> None:
     _, result = train_offline(learner.config, dataset, args.steps, index=torch.from_numpy(rows), learner=learner)
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
+                                                  "fraction": args.fraction,
                                                   "steps": args.steps})
     tenth = max(1, len(result.losses) // 10)
-    print(json.dumps({"arm": args.arm, "decisions": int(len(np.unique(rows))), "late_repeat": args.late_repeat,
+    print(json.dumps({"arm": args.arm, "fraction": args.fraction, "decisions": int(len(np.unique(rows))),
+                      "episodes": int(len(np.unique(episodes[rows], axis=0))), "late_repeat": args.late_repeat,
                       "drawn_rows": int(len(rows)), "steps": args.steps,
                       "seconds": round(result.seconds, 1), "skipped_steps": result.skipped_steps,
                       "loss_first_tenth": round(float(np.mean(result.losses[:tenth])), 4),
