@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# plan.md (session 56, addendum 05:42): the late band's learning curve. From the shipped actor, a seeded quarter and
+# plan.md (session 56, addendum 05:39): the late band's learning curve. From the shipped actor, a seeded quarter and
 # half of the training episodes (3,000 steps), and all of them with 9,000 steps; each against the shipped actor on the
 # held-out decisions, paired (one_step.py --held-out --versus): curve_s56.log, one_step_s56_{q25,q50,all9k}_vs_shipped.log
 set -e
