@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
-# plan.md (session 56, step 2-3): from the shipped actor, 3,000 offline steps of EM-choice distillation (not A2C) on
-# every training-split decision of the grown dataset, uniform and late-weighted (--late-repeat 2); then each of them
-# and session 55's arm all (the actor in the loop of the growth) against the shipped actor on the held-out layouts,
-# paired (one_step.py --held-out --versus): dagger_s56.log, one_step_s56_{shipped,uniform,late2,s55all}*.log
+# plan.md (session 56). Offline EM-choice distillation (not A2C) from the shipped actor on the grown dataset's
+# training split, each fine-tuned actor then scored against the shipped actor on the held-out layouts, paired
+# (one_step.py --held-out --versus). Two stages:
+#   bash dagger_s56.sh arms   steps 2-3: 3,000 steps uniform and late-weighted (--late-repeat 2), and session 55's
+#                             arm all: dagger_s56.log, one_step_s56_{shipped,uniform,late2,s55all}*.log
+#   bash dagger_s56.sh curve  the addenda's learning curve: a seeded quarter and half of the episodes (3,000 steps),
+#                             all with 9,000 steps, and that actor continued 9,000 more (18,000 in all):
+#                             curve_s56.log, one_step_s56_{q25,q50,all9k,all18k}_vs_shipped.log
 set -e
 cd "$(dirname "$0")/../../.."  # the repository
 S=benchmarks/results/stop_coverage
@@ -10,13 +14,29 @@ DATA=${DATA:-/work/data/s55_phases}
 SHIPPED=policies/buildings_sparse_em_choice/actor.pt
 PY="nice -n 5 .venv/bin/python"
 ERR=/work/runs/dagger_s56.err
-{
-  $PY $S/late_probe.py $DATA --arm all --steps 3000 --out /work/runs/s56_uniform.pt
-  $PY $S/late_probe.py $DATA --arm all --late-repeat 2 --steps 3000 --out /work/runs/s56_late2.pt
-} > $S/dagger_s56.log 2> $ERR
-$PY $S/one_step.py $DATA --held-out --actor $SHIPPED > $S/one_step_s56_shipped.log 2>> $ERR
-for arm in uniform late2 s55all; do
-  actor=/work/runs/s56_$arm.pt; [ $arm = s55all ] && actor=/work/runs/s55_late_probe_all.pt
-  $PY $S/one_step.py $DATA --held-out --actor $actor --versus $SHIPPED > $S/one_step_s56_${arm}_vs_shipped.log 2>> $ERR
-done
+versus() {  # versus NAME ACTOR: the actor against the shipped one on the held-out decisions
+  $PY $S/one_step.py $DATA --held-out --actor $2 --versus $SHIPPED > $S/one_step_s56_$1_vs_shipped.log 2>> $ERR
+}
+case ${1:?"give a stage: arms or curve"} in
+  arms)
+    {
+      $PY $S/late_probe.py $DATA --arm all --steps 3000 --out /work/runs/s56_uniform.pt
+      $PY $S/late_probe.py $DATA --arm all --late-repeat 2 --steps 3000 --out /work/runs/s56_late2.pt
+    } > $S/dagger_s56.log 2> $ERR
+    $PY $S/one_step.py $DATA --held-out --actor $SHIPPED > $S/one_step_s56_shipped.log 2>> $ERR
+    versus uniform /work/runs/s56_uniform.pt
+    versus late2 /work/runs/s56_late2.pt
+    versus s55all /work/runs/s55_late_probe_all.pt;;
+  curve)
+    : > $S/curve_s56.log
+    for arm in q25 q50 all9k all18k; do
+      case $arm in
+        q25) opts="--fraction 0.25 --steps 3000";; q50) opts="--fraction 0.5 --steps 3000";;
+        all9k) opts="--steps 9000";; all18k) opts="--actor /work/runs/s56_all9k.pt --steps 9000";;
+      esac
+      $PY $S/late_probe.py $DATA --arm all $opts --out /work/runs/s56_$arm.pt >> $S/curve_s56.log 2>> $ERR
+      versus $arm /work/runs/s56_$arm.pt
+    done;;
+  *) echo "stage $1: give arms or curve" >&2; exit 2;;
+esac
 echo done >> $ERR
