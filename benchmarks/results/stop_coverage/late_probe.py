@@ -3,10 +3,11 @@
 From an actor file (the shipped one by default), ``--steps`` offline steps of EM-choice distillation (not A2C;
 ``explore_rl.trainer.offline.train_offline``) on the decisions of a ``benchmarks/collect_decisions.py`` dataset whose
 layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
-or only those from decision ``--late-from`` of their episode on (``--arm late``); ``--late-repeat N`` draws the late
-ones N times as often, ``--fraction F`` keeps a seeded fraction of the episodes (session 56). Writes the fine-tuned actor file;
-``one_step.py --held-out --actor FILE`` then scores it by band on the held-out layouts (plan.md, session 55). One JSON
-line: arm, training decisions, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
+or only those from decision ``--late-from`` of their episode on (``--arm late``). Session 56 added ``--late-repeat N``
+(the late ones drawn N times as often) and ``--fraction F`` (a seeded fraction of the episodes, for a learning curve).
+Writes the fine-tuned actor file; ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out
+layouts (plan.md, sessions 55-56). One JSON line: arm, fraction, training decisions and episodes, late repeat, rows
+drawn from, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
 
     python benchmarks/results/stop_coverage/late_probe.py /work/data/s55_phases --arm late --out /work/runs/s55_late.pt
 """
@@ -93,8 +94,7 @@ def main(argv: list[str] | None = None) -> None:
     _, result = train_offline(learner.config, dataset, args.steps, index=torch.from_numpy(rows), learner=learner)
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
-                                                  "fraction": args.fraction,
-                                                  "steps": args.steps})
+                                                  "fraction": args.fraction, "steps": args.steps})
     tenth = max(1, len(result.losses) // 10)
     print(json.dumps({"arm": args.arm, "fraction": args.fraction, "decisions": int(len(np.unique(rows))),
                       "episodes": int(len(np.unique(episodes[rows], axis=0))), "late_repeat": args.late_repeat,
