@@ -284,7 +284,8 @@ def scored_data(tmp_path_factory):
 
 def test_one_step_scores_an_actor_on_a_dataset(scored_data, capsys):
     """On the made-up dataset: EM's stored choice closes exactly the whole gap in every group, the bands and area
-    groups partition the decisions, every interval holds its point, ``--held-out`` keeps layout 3's 5 decisions; a
+    groups partition the decisions, every interval holds its point, ``--held-out`` keeps layout 3's 5 decisions and
+    ``--training`` layout 4's 20 (not both at once); a
     folder that is no dataset, bad bands or frontier groups and a missing actor file are refused in one line."""
     root, actor_path = scored_data
     code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path)], capsys)
@@ -304,6 +305,11 @@ def test_one_step_scores_an_actor_on_a_dataset(scored_data, capsys):
     held = {row["group"]: row for row in json_lines(out)}
     assert code == 0 and held["all"]["decisions"] == held["decisions 0-14"]["decisions"] == 5
     assert held["all"]["episodes"] == 1 and "decisions 15-29" not in held
+    code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--training"], capsys)
+    trained = {row["group"]: row for row in json_lines(out)}
+    assert code == 0 and trained["all"]["decisions"] == 20 and trained["all"]["episodes"] == 1
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--held-out", "--training"], capsys)
+    assert code == 2 and "not allowed with" in err.strip().splitlines()[-1]
     code, _, err = run_main(ONE_STEP, [str(root)], capsys)
     assert code == 2 and "no dataset.json" in err.strip().splitlines()[-1]
     code, _, err = run_main(ONE_STEP, [str(root / "data"), "--versus", str(root / "missing.pt")], capsys)

@@ -12,11 +12,11 @@ with a bootstrap 95 % interval over episodes. Groups: all decisions; by the deci
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
 the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
-layouts no fine-tuning of ``late_probe.py`` saw; ``--versus FILE``: also each group's difference to another actor, with a
+layouts no fine-tuning of ``late_probe.py`` saw, ``--training`` only the others (session 56); ``--versus FILE``: also each group's difference to another actor, with a
 bootstrap that draws the same episodes for both (paired). One JSON line per group.
 
-    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10] [--held-out]
-        [--versus FILE]
+    python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
+        [--held-out | --training] [--versus FILE]
 """
 
 from __future__ import annotations
@@ -132,8 +132,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--actor", default=None, help="actor file (default: the shipped policy)")
     parser.add_argument("--bands", type=int, nargs="+", default=[0, 15, 30],
                         help="first decision index of each band, ascending from 0")
-    parser.add_argument("--held-out", action="store_true",
-                        help="score only the layouts held out of fine-tuning (layout % 4 == 3; late_probe.py)")
+    split = parser.add_mutually_exclusive_group()
+    split.add_argument("--held-out", action="store_true",
+                       help="score only the layouts held out of fine-tuning (layout % 4 == 3; late_probe.py)")
+    split.add_argument("--training", action="store_true",
+                       help="score only the layouts fine-tuning trains on (the others; in-sample for late_probe.py)")
     parser.add_argument("--versus", default=None,
                         help="another actor file: also each group's gap difference to it, paired by episode")
     parser.add_argument("--frontiers", type=int, nargs="+", default=[1, 8, 10],
@@ -165,9 +168,12 @@ def main(argv: list[str] | None = None) -> None:
     stored = dataset.rows()
     episodes = np.stack([stored["layout"].numpy(), stored["episode"].numpy()], axis=1)
     index = decision_index(episodes)
-    scored = held_out(episodes[:, 0]) if args.held_out else np.ones(len(index), dtype=bool)
+    scored = np.ones(len(index), dtype=bool)
+    if args.held_out or args.training:
+        scored = held_out(episodes[:, 0]) == args.held_out
     if not scored.any():
-        parser.error(f"{args.dataset}: no held-out layout (layout % 4 == 3) in the dataset")
+        which = "held-out" if args.held_out else "training"
+        parser.error(f"{args.dataset}: no {which} layout (held out: layout % 4 == 3) in the dataset")
     layouts = sorted(set(int(s) for s in episodes[scored, 0]))
     area = {seed: stats["area"] for seed, stats in plan_stats(layouts).items()}
     areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
