@@ -12,8 +12,9 @@ with a bootstrap 95 % interval over episodes. Groups: all decisions; by the deci
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
 the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
-layouts no fine-tuning of ``late_probe.py`` saw, ``--training`` only the others (session 56); ``--versus FILE``: also each group's difference to another actor, with a
-bootstrap that draws the same episodes for both (paired). One JSON line per group.
+layouts no fine-tuning of ``late_probe.py`` saw; ``--training``: only the others (session 56); ``--versus FILE``:
+also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired). One
+JSON line per group.
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
         [--held-out | --training] [--versus FILE]

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # plan.md: keep run.sh's finished buildings in runs/SET (val, val2, test: /work/runs/stop85_SET;
 # prior[_B]_val, prior_B_test, prior_X_val90, session 55's nodesN_val90 / nodesN_test and session 56's daggerN_val:
-# a learned-only variant's trials of /work/runs/stop85_SET (a prior, or another graph.max_nodes), each building joined with EM's trial of
-# runs/val, val2 or test; SETS="test": only those sets, the others' logs kept), then
+# a learned-only variant's trials of /work/runs/stop85_SET (a prior, another graph.max_nodes or a fine-tuned actor),
+# each building joined with EM's trial of runs/val, val2 or test; SETS="test": only those sets, the others' logs kept), then
 # study_zero_shot.py (the learned trials against EM's, paired by building):
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
 #   reached_SET.log                              how many buildings each policy brought to 85 %
