@@ -60,8 +60,9 @@ def decision_index(episodes: np.ndarray) -> np.ndarray:
     return index
 
 
-def rewards_of(dataset, actor, columns: list[int]) -> dict[str, np.ndarray]:
-    """Per decision: the greedy pick's, the expected, EM's stored choice's, a uniform pick's and the best reward."""
+def rewards_of(dataset, actor, columns: list[int], scored: np.ndarray) -> dict[str, np.ndarray]:
+    """Per decision: the greedy pick's, the expected, EM's stored choice's, a uniform pick's and the best reward;
+    computed for the ``scored`` rows only (a boolean mask over the dataset), NaN for the others."""
     import torch
 
     from explore_rl.envs.keys import ACTION_REWARDS
@@ -69,8 +70,8 @@ def rewards_of(dataset, actor, columns: list[int]) -> dict[str, np.ndarray]:
 
     out: dict[str, list] = {"greedy": [], "expected": [], "em": [], "uniform": [], "best": []}
     with torch.no_grad():
-        for start in range(0, len(dataset), CHUNK):
-            rows = dataset.rows(torch.arange(start, min(start + CHUNK, len(dataset))))
+        for chunk in torch.from_numpy(np.flatnonzero(scored)).split(CHUNK):
+            rows = dataset.rows(chunk)
             batch = padded_batch(rows, columns)
             rewards, mask = batch[ACTION_REWARDS], batch["action_mask"]
             logits = actor(batch["x"], batch["adj"], batch["node_mask"]).masked_fill(~mask, -torch.inf)
@@ -80,7 +81,10 @@ def rewards_of(dataset, actor, columns: list[int]) -> dict[str, np.ndarray]:
             out["em"].append(rewards.gather(-1, rows["em_action"][:, None])[:, 0])
             out["uniform"].append((rewards * mask).sum(-1) / mask.sum(-1))
             out["best"].append(rewards.masked_fill(~mask, -torch.inf).max(-1).values)
-    return {key: torch.cat(values).double().numpy() for key, values in out.items()}
+    full = {key: np.full(len(scored), np.nan) for key in out}
+    for key, values in out.items():
+        full[key][scored] = torch.cat(values).double().numpy()
+    return full
 
 
 def group_line(name: str, rows: np.ndarray, rewards: dict[str, np.ndarray], episodes: np.ndarray,
@@ -163,9 +167,6 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as error:  # CheckpointError: missing, unreadable or not an actor, in one line
             parser.error(f"{flag} {error}")
     dataset = DecisionDataset(args.dataset)
-    scores = {flag: rewards_of(dataset, actor.eval(), dataset.columns_for(feature_names(file.feature_set)))
-              for flag, (actor, file) in actors.items()}
-    rewards, versus = scores["--actor"], scores.get("--versus")
     stored = dataset.rows()
     episodes = np.stack([stored["layout"].numpy(), stored["episode"].numpy()], axis=1)
     index = decision_index(episodes)
@@ -175,6 +176,9 @@ def main(argv: list[str] | None = None) -> None:
     if not scored.any():
         which = "held-out" if args.held_out else "training"
         parser.error(f"{args.dataset}: no {which} layout (held out: layout % 4 == 3) in the dataset")
+    scores = {flag: rewards_of(dataset, actor.eval(), dataset.columns_for(feature_names(file.feature_set)), scored)
+              for flag, (actor, file) in actors.items()}
+    rewards, versus = scores["--actor"], scores.get("--versus")
     layouts = sorted(set(int(s) for s in episodes[scored, 0]))
     area = {seed: stats["area"] for seed, stats in plan_stats(layouts).items()}
     areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
