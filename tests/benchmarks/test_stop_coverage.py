@@ -409,3 +409,66 @@ def test_one_step_pairs_two_actors_on_the_same_decisions(scored_data, tmp_path, 
         low, high = paired[f"{column}_minus_versus_ci95"]
         assert low - 1e-9 <= difference <= high + 1e-9
     assert "em_minus_versus" not in paired
+
+
+def test_blind_columns_read_as_zero_and_leave_the_dataset_alone(scored_data):
+    """``BlindColumns``: the named node-feature columns of every row read as 0, the other columns and the labels as
+    stored, and the stored dataset keeps its values; a name the dataset lacks is refused naming it."""
+    from explore_rl.trainer.dataset import DecisionDataset
+
+    one_step = load_script(ONE_STEP)
+    root, _ = scored_data
+    dataset = DecisionDataset(root / "data")
+    view = one_step.blinded(dataset, ["uncertainty", "landmark_uncertainty"])
+    blind = dataset.columns_for(["uncertainty", "landmark_uncertainty"])
+    seen = view.rows()["x"].numpy()
+    stored = dataset.rows()["x"].numpy()
+    others = [c for c in range(stored.shape[-1]) if c not in blind]
+    assert len(view) == len(dataset) == 25
+    assert np.abs(seen[..., blind]).max() == 0.0 and np.abs(stored[..., blind]).max() > 0.1
+    assert np.abs(seen[..., others] - stored[..., others]).max() < 1e-12
+    assert one_step.blinded(dataset, []) is dataset
+    with pytest.raises(ValueError, match="no node feature 'loop_length'"):
+        one_step.blinded(dataset, ["loop_length"])
+
+
+def test_a_blind_actor_trains_and_scores_without_its_blind_columns(scored_data, tmp_path, capsys):
+    """``late_probe.py --blind``: the file records the blind columns, its input weights on them do not move in
+    training (they only ever meet zeros), and ``one_step.py`` scores it blind: the same file with other weights on
+    those columns scores the same to the digit; an unknown name is refused in one line."""
+    import torch
+
+    from explore_rl.models.actor_critic import INPUT_WEIGHT
+    from explore_rl.models.actor_file import read_actor_file, save_actor_file
+
+    root, actor_path = scored_data
+    names = ["uncertainty", "revisit_uncertainty", "landmark_uncertainty"]
+    out = tmp_path / "blind.pt"
+    code, stdout, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--actor", str(actor_path),
+                                              "--steps", "3", "--blind", *names, "--out", str(out)], capsys)
+    assert code == 0, err
+    assert json_lines(stdout)[-1]["blind"] == names
+    before, after = read_actor_file(actor_path), read_actor_file(out)
+    assert after.meta["blind"] == names
+    columns = [list(after.features).index(name) for name in names]
+    moved = (after.weights[INPUT_WEIGHT] - before.weights[INPUT_WEIGHT]).abs()
+    assert moved[:, columns].max() == 0.0 and moved.max() > 0.0  # the others trained
+    other = tmp_path / "other.pt"
+    weights = dict(after.weights)
+    weights[INPUT_WEIGHT] = weights[INPUT_WEIGHT].clone()
+    weights[INPUT_WEIGHT][:, columns] = torch.randn(weights[INPUT_WEIGHT].shape[0], len(columns)) * 5
+    save_actor_file(other, type(after)(**{**vars(after), "weights": weights}))
+
+    def scores(path) -> dict:
+        code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(path)], capsys)
+        assert code == 0, err
+        return {row["group"]: row for row in json_lines(out)}
+
+    blind, other_weights = scores(out), scores(other)
+    assert blind.keys() == other_weights.keys()
+    for group, row in blind.items():  # the blind columns' weights meet only zeros
+        for key in ("greedy", "expected"):
+            assert row[key] == pytest.approx(other_weights[group][key], abs=1e-9)
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--blind", "loop_length",
+                                         "--out", str(tmp_path / "x.pt")], capsys)
+    assert code == 2 and "--blind loop_length" in err.strip().splitlines()[-1]

@@ -4,7 +4,9 @@ From an actor file (the shipped one by default), ``--steps`` offline steps of EM
 ``explore_rl.trainer.offline.train_offline``) on the decisions of a ``benchmarks/collect_decisions.py`` dataset whose
 layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
 or only those from decision ``--late-from`` of their episode on (``--arm late``). Session 56 added ``--late-repeat N``
-(the late ones drawn N times as often) and ``--fraction F`` (a seeded fraction of the episodes, for a learning curve).
+(the late ones drawn N times as often) and ``--fraction F`` (a seeded fraction of the episodes, for a learning curve);
+session 57 ``--blind NAME ...`` (those node-feature columns read as 0 in training, and in ``one_step.py``'s scoring
+through the file's ``meta["blind"]``: an actor that does not read them).
 Writes the fine-tuned actor file; ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out
 layouts (plan.md, sessions 55-56). One JSON line: arm, fraction, training decisions and episodes, late repeat, rows
 drawn from, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
@@ -23,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
-from one_step import decision_index, held_out  # noqa: E402
+from one_step import blinded, decision_index, held_out  # noqa: E402
 from revisit_probe import greedy_learner  # noqa: E402
 
 SHIPPED = "policies/buildings_sparse_em_choice/actor.pt"
@@ -61,6 +63,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--lr", type=float, default=3e-4)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--blind", nargs="+", default=[], metavar="NAME",
+                        help="node features read as 0 (training and one_step.py's scoring): an actor without them")
     parser.add_argument("--out", type=Path, required=True, help="the fine-tuned actor file to write")
     args = parser.parse_args(argv)
     if not 0 < args.fraction <= 1:
@@ -82,6 +86,10 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--actor {error}")
     dataset = DecisionDataset(args.dataset)
     stored = dataset.rows()
+    try:
+        dataset = blinded(dataset, args.blind)
+    except ValueError as error:  # a --blind name the dataset lacks
+        parser.error(f"--blind {' '.join(args.blind)}: {error}")
     layouts, episode = stored["layout"].numpy(), stored["episode"].numpy()
     episodes = np.stack([layouts, episode], axis=1)
     rows = training_rows(layouts, episodes, args.arm, args.late_from, args.late_repeat)
@@ -94,11 +102,12 @@ def main(argv: list[str] | None = None) -> None:
     _, result = train_offline(learner.config, dataset, args.steps, index=torch.from_numpy(rows), learner=learner)
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
-                                                  "fraction": args.fraction, "steps": args.steps})
+                                                  "fraction": args.fraction, "steps": args.steps,
+                                                  "blind": args.blind})
     tenth = max(1, len(result.losses) // 10)
     print(json.dumps({"arm": args.arm, "fraction": args.fraction, "decisions": int(len(np.unique(rows))),
                       "episodes": int(len(np.unique(episodes[rows], axis=0))), "late_repeat": args.late_repeat,
-                      "drawn_rows": int(len(rows)), "steps": args.steps,
+                      "blind": args.blind, "drawn_rows": int(len(rows)), "steps": args.steps,
                       "seconds": round(result.seconds, 1), "skipped_steps": result.skipped_steps,
                       "loss_first_tenth": round(float(np.mean(result.losses[:tenth])), 4),
                       "loss_last_tenth": round(float(np.mean(result.losses[-tenth:])), 4), "out": str(path)}))
