@@ -5,8 +5,8 @@ From an actor file (the shipped one by default), ``--steps`` offline steps of EM
 layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
 or only those from decision ``--late-from`` of their episode on (``--arm late``). Session 56 added ``--late-repeat N``
 (the late ones drawn N times as often) and ``--fraction F`` (a seeded fraction of the episodes, for a learning curve);
-session 57 ``--blind NAME ...`` (those node-feature columns read as 0 in training, and in ``one_step.py``'s scoring
-through the file's ``meta["blind"]``: an actor that does not read them).
+session 57 ``--blind NAME ...`` (those node-feature columns read as 0 in training, and the written file's input weights
+on them are 0: an actor that does not read them, scored or run as it is by ``one_step.py`` and the runner).
 Writes the fine-tuned actor file; ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out
 layouts (plan.md, sessions 55-56). One JSON line: arm, fraction, training decisions and episodes, late repeat, rows
 drawn from, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
-from one_step import blinded, decision_index, held_out  # noqa: E402
+from one_step import decision_index, held_out  # noqa: E402
 from revisit_probe import greedy_learner  # noqa: E402
 
 SHIPPED = "policies/buildings_sparse_em_choice/actor.pt"
@@ -40,6 +40,47 @@ def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from
     if arm == "late":
         kept &= late
     return np.concatenate([np.flatnonzero(kept)] + [np.flatnonzero(kept & late)] * (late_repeat - 1))
+
+
+class BlindColumns:
+    """A dataset whose node-feature columns ``names`` read as 0: what an actor that does not read them sees (its
+    input layer's weights on them meet only zeros, so training leaves them). Rows are copies; the stored dataset is
+    not touched."""
+
+    def __init__(self, dataset, names: list[str]) -> None:
+        self.dataset, self.names = dataset, list(names)
+        self.blind = dataset.columns_for(self.names)  # ValueError naming a column the dataset lacks
+
+    def __len__(self) -> int:
+        return len(self.dataset)
+
+    def __getattr__(self, name: str):
+        return getattr(self.dataset, name)
+
+    def rows(self, index=None):
+        rows = self.dataset.rows(index)
+        x = rows["x"].clone()
+        x[..., self.blind] = 0
+        rows.set("x", x)
+        return rows
+
+
+def blinded(dataset, names: list[str]):
+    """``dataset`` with the columns ``names`` read as 0 (:class:`BlindColumns`), or itself if none."""
+    return BlindColumns(dataset, names) if names else dataset
+
+
+def blind_actor_file(path: Path, names: list[str]) -> None:
+    """Set the input layer's weights on the node features ``names`` of the actor file at ``path`` to 0, so that it
+    computes without them whatever the runner feeds there (a blind-trained actor, as it trained)."""
+    from explore_rl.models.actor_critic import INPUT_WEIGHT
+    from explore_rl.models.actor_file import read_actor_file, save_actor_file
+
+    actor_file = read_actor_file(path)
+    weight = actor_file.weights[INPUT_WEIGHT].clone()
+    weight[:, [actor_file.features.index(name) for name in names]] = 0
+    actor_file.weights = {**actor_file.weights, INPUT_WEIGHT: weight}
+    save_actor_file(path, actor_file)
 
 
 def episode_fraction(rows: np.ndarray, episodes: np.ndarray, fraction: float, seed: int) -> np.ndarray:
@@ -104,6 +145,8 @@ def main(argv: list[str] | None = None) -> None:
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
                                                   "fraction": args.fraction, "steps": args.steps,
                                                   "blind": args.blind})
+    if args.blind:
+        blind_actor_file(path, args.blind)
     tenth = max(1, len(result.losses) // 10)
     print(json.dumps({"arm": args.arm, "fraction": args.fraction, "decisions": int(len(np.unique(rows))),
                       "episodes": int(len(np.unique(episodes[rows], axis=0))), "late_repeat": args.late_repeat,

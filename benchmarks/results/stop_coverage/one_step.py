@@ -13,9 +13,8 @@ with a bootstrap 95 % interval over episodes. Groups: all decisions; by the deci
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
 the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
 layouts no fine-tuning of ``late_probe.py`` saw; ``--training``: only the others (session 56); ``--versus FILE``:
-also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired). An
-actor file fine-tuned blind to some node features (``late_probe.py --blind``, its ``meta["blind"]``) is scored with
-those columns read as 0, as it trained (session 57). One JSON line per group.
+also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired). One
+JSON line per group.
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
         [--held-out | --training] [--versus FILE]
@@ -59,33 +58,6 @@ def decision_index(episodes: np.ndarray) -> np.ndarray:
         index[row] = seen.get(key, 0)
         seen[key] = index[row] + 1
     return index
-
-
-class BlindColumns:
-    """A dataset whose node-feature columns ``names`` read as 0: what an actor that does not read them sees (its
-    input layer's weights on them meet only zeros). Rows are copies; the stored dataset is not touched."""
-
-    def __init__(self, dataset, names: list[str]) -> None:
-        self.dataset, self.names = dataset, list(names)
-        self.blind = dataset.columns_for(self.names)  # ValueError naming a column the dataset lacks
-
-    def __len__(self) -> int:
-        return len(self.dataset)
-
-    def __getattr__(self, name: str):
-        return getattr(self.dataset, name)
-
-    def rows(self, index=None):
-        rows = self.dataset.rows(index)
-        x = rows["x"].clone()
-        x[..., self.blind] = 0
-        rows.set("x", x)
-        return rows
-
-
-def blinded(dataset, names: list[str] | None):
-    """``dataset`` with the columns ``names`` read as 0 (:class:`BlindColumns`), or itself if none."""
-    return BlindColumns(dataset, names) if names else dataset
 
 
 def rewards_of(dataset, actor, columns: list[int], scored: np.ndarray) -> dict[str, np.ndarray]:
@@ -204,8 +176,7 @@ def main(argv: list[str] | None = None) -> None:
     if not scored.any():
         which = "held-out" if args.held_out else "training"
         parser.error(f"{args.dataset}: no {which} layout (held out: layout % 4 == 3) in the dataset")
-    scores = {flag: rewards_of(blinded(dataset, file.meta.get("blind")), actor.eval(),
-                               dataset.columns_for(feature_names(file.feature_set)), scored)
+    scores = {flag: rewards_of(dataset, actor.eval(), dataset.columns_for(feature_names(file.feature_set)), scored)
               for flag, (actor, file) in actors.items()}
     rewards, versus = scores["--actor"], scores.get("--versus")
     layouts = sorted(set(int(s) for s in episodes[scored, 0]))
