@@ -16,7 +16,8 @@ exploration state with plain arrays, get back the frontier to visit next::
         nearest=0,                         # which frontier has the shortest path
     )                                      # -> index into frontiers
 
-Traces may be passed instead of covariances (``pose_uncertainty``, ``frontier_uncertainty``).
+Traces may be passed instead of covariances (``pose_uncertainty``, ``frontier_uncertainty``). A policy of
+``graph.features=no_covariance`` reads none of them (pass neither): it needs no marginals at all.
 The current pose is the newest keyframe unless ``current`` says otherwise. The graph is
 the paper's (explore_rl/graph/exploration_graph.py, :func:`build_graph`): offer the nearest
 frontier and every frontier whose path closes a loop, as the policy was trained with.
@@ -40,8 +41,14 @@ import numpy as np
 import torch
 
 from explore_rl.graph.encode import EncodedGraph, encode
-from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph
-from explore_rl.graph.features import FRONTIER_EXTRAS, has_frontier_extras, has_loop_length
+from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph, select_features
+from explore_rl.graph.features import (
+    COVARIANCE_FEATURES,
+    FRONTIER_EXTRAS,
+    has_frontier_extras,
+    has_loop_length,
+    reads_covariances,
+)
 from explore_rl.models.actor_critic import greedy_row
 from explore_rl.models.actor_file import ActorFile, check_output_file, export_actor_file, load_actor
 from explore_rl.models.export import ExportedActor, export_actor
@@ -94,14 +101,22 @@ class DeployedPolicy:
         frontier ``graph.candidate[node]``; the nearest comes first). ``frontier_extra (F, 6)``:
         the extended columns (explore_rl/graph/features.py ``FRONTIER_EXTRAS``), needed by a
         policy trained with ``graph.features=extended`` or ``loops`` and refused by one trained
-        without (``loops``' own column is computed from ``pose_edges`` and the revisits)."""
+        without (``loops``' own column is computed from ``pose_edges`` and the revisits); ``(F, 4)``,
+        those without covariance (:attr:`extra_columns`), for ``no_covariance``, which takes no
+        uncertainty either."""
         pose_xy = np.asarray(pose_xy, float).reshape(-1, 2)
         frontier_xy = np.asarray(frontier_xy, float).reshape(-1, 2)
         n_poses, n_frontiers = len(pose_xy), len(frontier_xy)
         if not 0 <= nearest < max(n_frontiers, 1):
             raise ValueError(f"nearest={nearest} is not a frontier index (0..{n_frontiers - 1})")
-        pose_u = uncertainty(pose_cov, pose_uncertainty, n_poses, "pose")
-        frontier_u = uncertainty(frontier_cov, frontier_uncertainty, n_frontiers, "frontier")
+        if self.reads_covariances:
+            pose_u = uncertainty(pose_cov, pose_uncertainty, n_poses, "pose")
+            frontier_u = uncertainty(frontier_cov, frontier_uncertainty, n_frontiers, "frontier")
+        elif any(value is not None for value in (pose_cov, pose_uncertainty, frontier_cov, frontier_uncertainty)):
+            raise ValueError(f"this policy reads graph.features={self.actor_file.feature_set}, no covariance: do not "
+                             "pass pose_cov, pose_uncertainty, frontier_cov or frontier_uncertainty")
+        else:  # columns the policy does not read (select_features leaves them out)
+            pose_u, frontier_u = np.zeros(n_poses), np.zeros(n_frontiers)
         if len(frontier_revisits) != n_frontiers:
             raise ValueError(f"frontier_revisits has {len(frontier_revisits)} entries for {n_frontiers} frontiers")
         for f, keyframes in enumerate(frontier_revisits):
@@ -113,10 +128,24 @@ class DeployedPolicy:
             raise ValueError(f"pose_edges must index keyframes 0..{n_poses - 1}")
         order = [nearest] + [f for f in range(n_frontiers) if f != nearest]
         extra = self.frontier_extra(frontier_extra, n_frontiers)
-        return build_graph(pose_xy, pose_u, edges, frontier_xy[order], frontier_u[order],
-                           [list(frontier_revisits[f]) for f in order], current=current,
-                           frontier_candidates=order, frontier_extra=None if extra is None else extra[order],
-                           loop_length=self.reads_loop_length)
+        graph = build_graph(pose_xy, pose_u, edges, frontier_xy[order], frontier_u[order],
+                            [list(frontier_revisits[f]) for f in order], current=current,
+                            frontier_candidates=order, frontier_extra=None if extra is None else extra[order],
+                            loop_length=self.reads_loop_length)
+        return graph if self.actor_file is None else select_features(graph, self.actor_file.feature_set)
+
+    @property
+    def reads_covariances(self) -> bool:
+        """Whether the policy reads the pose and frontier uncertainty (every feature set but ``no_covariance``)."""
+        return self.actor_file is None or reads_covariances(self.actor_file.feature_set)
+
+    @property
+    def extra_columns(self) -> tuple[str, ...]:
+        """The ``frontier_extra`` columns the caller passes: ``FRONTIER_EXTRAS``, those without covariance for a
+        policy that reads none."""
+        if self.reads_covariances:
+            return FRONTIER_EXTRAS
+        return tuple(name for name in FRONTIER_EXTRAS if name not in COVARIANCE_FEATURES)
 
     @property
     def reads_loop_length(self) -> bool:
@@ -127,18 +156,21 @@ class DeployedPolicy:
     def frontier_extra(self, extra, n_frontiers: int) -> np.ndarray | None:
         """``frontier_extra`` checked against what the policy reads."""
         wants = self.actor_file is not None and has_frontier_extras(self.actor_file.feature_set)
+        columns = self.extra_columns
         if extra is None:
             if wants:
                 raise ValueError(f"this policy reads graph.features={self.actor_file.feature_set}: pass frontier_extra=(F, "
-                                 f"{len(FRONTIER_EXTRAS)}) with columns {', '.join(FRONTIER_EXTRAS)}")
+                                 f"{len(columns)}) with columns {', '.join(columns)}")
             return None
         if self.actor_file is not None and not wants:
             raise ValueError("this policy reads the paper's 4 node features: do not pass frontier_extra")
         extra = np.asarray(extra, float)
-        if extra.shape != (n_frontiers, len(FRONTIER_EXTRAS)) or not np.isfinite(extra).all():
-            raise ValueError(f"frontier_extra must be finite, shape ({n_frontiers}, {len(FRONTIER_EXTRAS)}), "
-                             f"got {extra.shape}")
-        return extra
+        if extra.shape != (n_frontiers, len(columns)) or not np.isfinite(extra).all():
+            raise ValueError(f"frontier_extra must be finite, shape ({n_frontiers}, {len(columns)}) with columns "
+                             f"{', '.join(columns)}, got {extra.shape}")
+        full = np.zeros((n_frontiers, len(FRONTIER_EXTRAS)))  # the columns not read stay 0 (select_features drops them)
+        full[:, [FRONTIER_EXTRAS.index(name) for name in columns]] = extra
+        return full
 
     def decide(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> FrontierChoice:
         """The most probable frontier (greedy) and the policy's distribution."""
@@ -190,7 +222,7 @@ def export_program(actor_path: str | Path | None, out: str | Path) -> Path:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """``explore-rl-export CHECKPOINT OUT.pt [--program OUT.pt2]``."""
+    """``explore-rl-export CHECKPOINT OUT.pt [--program OUT.pt2] [--features SET]``."""
     parser = argparse.ArgumentParser(
         prog="explore-rl-export",
         description="Write the actor file of a training checkpoint (weights + model config, for "
@@ -199,11 +231,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("checkpoint", help="a training checkpoint (RUN/checkpoints/best.pt) or an actor file")
     parser.add_argument("out", help="the actor file to write, e.g. policies/buildings_office_distill/actor.pt")
     parser.add_argument("--program", help="also write the torch.export program here (e.g. actor.pt2)")
+    parser.add_argument("--features", default=None,
+                        help="write it reading this graph.features (exact only: e.g. no_covariance from an actor "
+                             "whose weights on the covariance columns are 0)")
     args = parser.parse_args(argv)
     try:
         if args.program:
             check_output_file(args.program, "actor.pt2")  # before anything is written
-        path = export_actor_file(args.checkpoint, args.out)
+        path = export_actor_file(args.checkpoint, args.out, args.features)
         size = path.stat().st_size / 2**20
         print(f"wrote {path} ({size:.1f} MB)")
         if args.program:

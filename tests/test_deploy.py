@@ -143,3 +143,23 @@ def test_a_paper_feature_policy_refuses_frontier_extra(files):
     arrays = arrays_of(decision)
     with pytest.raises(ValueError, match="do not pass frontier_extra"):
         policy.decide(**arrays, frontier_extra=np.zeros((len(arrays["frontier_xy"]), 6)))
+
+
+def test_a_no_covariance_policy_takes_no_uncertainty_and_four_extra_columns(tmp_path):
+    """``graph.features=no_covariance``: the caller passes no covariance or trace and the 4 extra columns without
+    covariance; deploy builds the env's graph and makes the env actor's choice; an uncertainty passed anyway, or
+    the 6 extended columns, are refused naming what to pass."""
+    config = load_config([*FAST, "graph.features=no_covariance"])
+    path, learner = actor_file(tmp_path, config)
+    policy = load_policy(path, max_nodes=config.graph.max_nodes)
+    for decision, env_choice in env_decisions(config, learner, steps=3):
+        arrays = arrays_of(decision)
+        arrays.pop("pose_cov"), arrays.pop("frontier_uncertainty")
+        extra = decision.graph.features[decision.graph.frontier_nodes, 3:7]
+        made = policy.decide(**arrays, frontier_extra=extra)
+        np.testing.assert_allclose(made.graph.features, decision.graph.features, rtol=1e-12, atol=1e-15)
+        assert decision.actions[made.frontier].candidate == env_choice
+        with pytest.raises(ValueError, match="no covariance: do not pass pose_cov"):
+            policy.decide(**arrays, frontier_extra=extra, pose_uncertainty=np.zeros(len(arrays["pose_xy"])))
+        with pytest.raises(ValueError, match="columns path_length, frontier_size, unknown_nearby, revisits"):
+            policy.decide(**arrays, frontier_extra=np.zeros((len(extra), 6)))

@@ -15,5 +15,6 @@ class GraphConfig:
     max_nodes: int = 512
     # node features: paper (uncertainty, distance, bearing, identity) | extended (+ per-frontier
     # path length, size, unknown nearby, revisits and their uncertainty, landmark uncertainty)
-    # | loops (extended + the pose-graph length of the loop a revisit closes)
+    # | loops (extended + the pose-graph length of the loop a revisit closes) | no_covariance (extended
+    # without uncertainty, revisit and landmark uncertainty: decides without pose marginals)
     features: str = "paper"

@@ -62,7 +62,7 @@ def nodes_to_keep(graph: ExplorationGraph, max_nodes: int) -> np.ndarray:
     touches_frontier[graph.edges[frontier_edges].ravel()] = True
     protected = frontier.copy()
     protected[graph.current] = True
-    distance = graph.features[:, 1]
+    distance = np.hypot(*(graph.xy - graph.xy[graph.current]).T)  # the distance feature, whatever the columns
     # drop order: unlinked poses farthest first, then frontier-linked poses farthest first
     droppable = np.flatnonzero(~protected)
     order = droppable[np.lexsort((-distance[droppable], touches_frontier[droppable]))]

@@ -21,13 +21,21 @@ running exploration.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from explore_rl.graph.features import PAPER, frontier_extras, has_frontier_extras, has_loop_length, loop_lengths
+from explore_rl.graph.features import (
+    PAPER,
+    frontier_extras,
+    has_frontier_extras,
+    has_loop_length,
+    kept_columns,
+    loop_lengths,
+)
 
 if TYPE_CHECKING:  # annotations only: the graph layer imports nothing from planning at run time
     from explore_rl.planning.actions import Action
@@ -43,7 +51,7 @@ class ExplorationGraph:
     """Nodes (keyframes first, in keyframe order, then frontiers, nearest first) and edges."""
 
     xy: np.ndarray  # (n, 2) world positions
-    features: np.ndarray  # (n, F) the paper's FEATURES, then any extended columns
+    features: np.ndarray  # (n, F) the paper's FEATURES, then any extended columns (or graph.features' selection)
     edges: np.ndarray  # (E, 2) int node pairs, i < j, unique
     weights: np.ndarray  # (E,) Euclidean length of each edge (m)
     keyframe: np.ndarray  # (n,) keyframe index of a pose node, -1 for a frontier
@@ -172,8 +180,16 @@ def graph_from_state(state: ExplorationState, context: DecisionContext,
     if has_frontier_extras(features):
         extra = frontier_extras(state, actions, context.pose_covs, context.vmap.landmark_xy, context.landmark_covs,
                                 sensor_range)
-    return graph_from_estimates(state, actions, context.poses, context.pose_covs, frontier_covs,
-                                factor_edges(context.graph.edges), extra, has_loop_length(features))
+    graph = graph_from_estimates(state, actions, context.poses, context.pose_covs, frontier_covs,
+                                 factor_edges(context.graph.edges), extra, has_loop_length(features))
+    return select_features(graph, features)
+
+
+def select_features(graph: ExplorationGraph, features: str) -> ExplorationGraph:
+    """``graph`` with the node-feature columns ``graph.features`` reads, of those it was built with
+    (:func:`explore_rl.graph.features.kept_columns`: ``no_covariance`` leaves the covariance columns out)."""
+    kept = kept_columns(features)
+    return graph if kept is None else dataclasses.replace(graph, features=graph.features[:, kept])
 
 
 def action_frontiers(state: ExplorationState, actions: list[Action]) -> np.ndarray:

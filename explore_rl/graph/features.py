@@ -23,6 +23,12 @@ alone closes ~45 % of the random-to-EM gap, no paper feature does better than ra
   or one an earlier loop already joined, is close through the graph however uncertain it
   is); a g-U-Net of depth 3 cannot find a shortest path over hundreds of poses.
 
+``no_covariance`` keeps the columns of ``extended`` that need no covariance: the paper's ``distance``, ``bearing``,
+``identity`` and ``path_length``, ``frontier_size``, ``unknown_nearby``, ``revisits``. Its graph is built as the
+extended one with the three covariance columns (``uncertainty``, ``revisit_uncertainty``, ``landmark_uncertainty``)
+left out (:func:`kept_columns`), so a decision needs neither the pose marginals nor the virtual map's fusion: the
+learned policy's largest costs besides the action set (issue 24's decision-time target).
+
 Pose nodes carry 0 in the frontier columns. Each feature has a scale (multiplied in by the
 model, ``model.feature_scale``) that brings it to order one.
 """
@@ -45,7 +51,10 @@ PAPER = ("uncertainty", "distance", "bearing", "identity")
 FRONTIER_EXTRAS = ("path_length", "frontier_size", "unknown_nearby", "revisits", "revisit_uncertainty",
                    "landmark_uncertainty")
 LOOP_EXTRAS = ("loop_length",)
-FEATURE_SETS = {"paper": PAPER, "extended": PAPER + FRONTIER_EXTRAS, "loops": PAPER + FRONTIER_EXTRAS + LOOP_EXTRAS}
+COVARIANCE_FEATURES = ("uncertainty", "revisit_uncertainty", "landmark_uncertainty")
+NO_COVARIANCE = tuple(name for name in PAPER + FRONTIER_EXTRAS if name not in COVARIANCE_FEATURES)
+FEATURE_SETS = {"paper": PAPER, "extended": PAPER + FRONTIER_EXTRAS, "loops": PAPER + FRONTIER_EXTRAS + LOOP_EXTRAS,
+                "no_covariance": NO_COVARIANCE}
 SCALES = {
     "uncertainty": 10.0, "distance": 0.1, "bearing": 1.0 / math.pi, "identity": 1.0,
     "path_length": 0.05, "frontier_size": 0.5, "unknown_nearby": 1.0, "revisits": 0.1,
@@ -68,6 +77,28 @@ def has_frontier_extras(feature_set: str) -> bool:
 def has_loop_length(feature_set: str) -> bool:
     """Whether ``graph.features`` reads ``loop_length`` (:func:`loop_lengths`)."""
     return LOOP_EXTRAS[0] in feature_names(feature_set)
+
+
+def reads_covariances(feature_set: str) -> bool:
+    """Whether ``graph.features`` reads a column made from covariances (pose marginals or the virtual map)."""
+    return any(name in COVARIANCE_FEATURES for name in feature_names(feature_set))
+
+
+def built_names(feature_set: str) -> tuple[str, ...]:
+    """The columns a graph is built with for ``graph.features``: the paper's four, then the frontier extras and
+    ``loop_length`` if it reads any of them (``build_graph``'s order); :func:`kept_columns` selects its own."""
+    names = PAPER
+    if has_frontier_extras(feature_set):
+        names += FRONTIER_EXTRAS
+    if has_loop_length(feature_set):
+        names += LOOP_EXTRAS
+    return names
+
+
+def kept_columns(feature_set: str) -> list[int] | None:
+    """Indices into :func:`built_names` of the columns ``graph.features`` reads; None if it reads them all."""
+    built, names = built_names(feature_set), feature_names(feature_set)
+    return None if names == built else [built.index(name) for name in names]
 
 
 def feature_set_of(names: list[str] | tuple[str, ...]) -> str:

@@ -12,7 +12,7 @@ TorchRL modules that read and write those tensordict keys.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 import torch
 from torch import Tensor, nn
@@ -147,17 +147,27 @@ INPUT_WEIGHT = "unet.down_convs.0.lin.weight"  # the g-U-Net's first layer: (hid
 FEATURE_SCALE = "scale.scale"
 
 
-def widened_inputs(weights: dict[str, Tensor], scale: Tensor) -> dict[str, Tensor]:
-    """A scorer's ``weights`` for a wider node-feature set whose first columns are its own
-    (e.g. ``extended`` -> ``loops``): the input layer's weights of the new columns are 0, so
-    it scores every graph as before until it trains; ``scale``: the wider set's feature
-    scales, of which the shared columns keep the weights' own."""
+def selected_inputs(weights: dict[str, Tensor], own: Sequence[str], wanted: Sequence[str],
+                    scale: Tensor) -> dict[str, Tensor]:
+    """A scorer's ``weights``, reading the node features ``own``, for the features ``wanted``: the input layer keeps
+    its columns of the features both read (in ``wanted``'s order) and gets weight 0 on new ones (e.g. ``extended``
+    -> ``loops``: it scores every graph as before until it trains). Columns of ``own`` left out keep the scores only
+    if their weights are 0 (:func:`dropped_input_weight`). ``scale``: ``wanted``'s feature scales, of which the
+    shared columns keep the weights' own. Input columns past ``own`` (``model.relative_features``) stay last."""
     weight, own_scale = weights[INPUT_WEIGHT], weights[FEATURE_SCALE]
-    extra = len(scale) - weight.shape[1]
-    if extra < 0:
-        raise ValueError(f"cannot widen {weight.shape[1]} node features to {len(scale)}")
-    return {**weights, INPUT_WEIGHT: torch.cat([weight, weight.new_zeros(weight.shape[0], extra)], dim=1),
-            FEATURE_SCALE: torch.cat([own_scale, scale[len(own_scale):].to(own_scale)])}
+    own = list(own)
+    zero = weight.new_zeros(weight.shape[0])
+    columns = [weight[:, own.index(name)] if name in own else zero for name in wanted]
+    columns += list(weight[:, len(own):].unbind(1))  # relative features, if any
+    scales = [own_scale[own.index(name)] if name in own else scale[i].to(own_scale) for i, name in enumerate(wanted)]
+    return {**weights, INPUT_WEIGHT: torch.stack(columns, dim=1), FEATURE_SCALE: torch.stack(scales)}
+
+
+def dropped_input_weight(weights: dict[str, Tensor], own: Sequence[str], wanted: Sequence[str]) -> float:
+    """The largest input weight on the features of ``own`` that ``wanted`` leaves out (0: leaving them out changes
+    no score)."""
+    dropped = [i for i, name in enumerate(own) if name not in wanted]
+    return float(weights[INPUT_WEIGHT][:, dropped].abs().max()) if dropped else 0.0
 
 
 def masked_mean(values: Tensor, mask: Tensor) -> Tensor:

@@ -30,8 +30,8 @@ from typing import Any
 import torch
 
 from explore_rl.graph.exploration_graph import FEATURES
-from explore_rl.graph.features import feature_names, feature_set_of
-from explore_rl.models.actor_critic import GraphActor
+from explore_rl.graph.features import feature_names, feature_scales, feature_set_of
+from explore_rl.models.actor_critic import FEATURE_SCALE, GraphActor, dropped_input_weight, selected_inputs
 from explore_rl.models.config import ModelConfig
 from explore_rl.resources import shipped_file
 from explore_rl.models.checkpoint import FORMAT as TRAINING_FORMAT
@@ -173,13 +173,35 @@ def save_actor_file(path: str | Path, actor_file: ActorFile) -> Path:
     return path
 
 
-def export_actor_file(checkpoint: str | Path, out: str | Path) -> Path:
+def with_features(actor_file: ActorFile, feature_set: str) -> ActorFile:
+    """The same actor reading ``graph.features=feature_set``: the input layer's columns selected
+    (:func:`~explore_rl.models.actor_critic.selected_inputs`). Only exact: every feature it leaves out must
+    have input weight 0 (an actor trained blind to them, e.g. ``no_covariance`` from an ``extended`` one
+    fine-tuned without its covariance columns), else ValueError naming the largest such weight. New
+    features get weight 0, so it scores every graph as before."""
+    wanted = list(feature_names(feature_set))
+    dropped = dropped_input_weight(actor_file.weights, actor_file.features, wanted)
+    if dropped != 0.0:
+        raise ValueError(f"--features {feature_set}: the actor's input weights on the features it would leave out "
+                         f"reach {dropped:.3g}, so it would decide differently; only an actor blind to them converts")
+    scale = torch.tensor(feature_scales(feature_set), dtype=torch.float32)
+    weights = selected_inputs(actor_file.weights, actor_file.features, wanted, scale)
+    model = actor_file.model
+    if model.feature_scale is not None:
+        model = dataclasses.replace(model, feature_scale=[float(s) for s in weights[FEATURE_SCALE]])
+    meta = {**actor_file.meta, "converted_from_features": actor_file.feature_set}
+    return ActorFile(model, weights, wanted, actor_file.graph_max_nodes, meta)
+
+
+def export_actor_file(checkpoint: str | Path, out: str | Path, features: str | None = None) -> Path:
     """An actor file at ``out`` from a training checkpoint (or another actor file), checked
-    by loading it back."""
+    by loading it back; ``features``: converted to that feature set (:func:`with_features`)."""
     checkpoint = Path(checkpoint)
     check_output_file(out)
     actor_file = read_actor_file(checkpoint)
     build_actor(checkpoint, actor_file)  # the weights fit the model before anything is written
+    if features is not None:
+        actor_file = with_features(actor_file, features)
     path = save_actor_file(out, actor_file)
     load_actor(path)
     return path

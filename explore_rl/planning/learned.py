@@ -15,7 +15,9 @@ and the virtual landmark of each action frontier -- a handful of cells. :func:`g
 fuses only the observations of those landmarks, from the keyframes within sensor range,
 in keyframe order and with the same observation model and covariance-intersection kernel
 as the full map (:class:`~explore_rl.planning.em.Observations`), so the graph is the same
-(tests/planning/test_learned.py compares it with the environment's on real states).
+(tests/planning/test_learned.py compares it with the environment's on real states). An actor of
+``graph.features=no_covariance`` needs neither: :func:`graph_without_covariances` skips the pose
+marginals and the fusion altogether.
 
 **Fast path** (issue 24: decide >= 5x faster than EM; ``benchmarks/bench_decision_real.py``):
 every candidate's revisits predicted at once (:func:`~explore_rl.planning.actions.predict_candidate_paths`),
@@ -49,8 +51,15 @@ from explore_rl.graph.exploration_graph import (
     action_frontiers,
     factor_edges,
     graph_from_estimates,
+    select_features,
 )
-from explore_rl.graph.features import frontier_extras, has_frontier_extras, has_loop_length, loop_lengths
+from explore_rl.graph.features import (
+    frontier_extras,
+    has_frontier_extras,
+    has_loop_length,
+    loop_lengths,
+    reads_covariances,
+)
 from explore_rl.grid import GridSpec
 from explore_rl.models.actor_critic import GraphActor, greedy_row
 from explore_rl.models.actor_file import ActorFile, load_actor
@@ -214,6 +223,8 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     (their mean uncertainty is a column), still a small part of the map: one fusion of the
     frontiers' landmarks and those together (each landmark is fused on its own, so a
     frontier's covariance is the same whatever else is fused with it)."""
+    if not reads_covariances(features):
+        return graph_without_covariances(state, actions, vmap, features)
     poses, pose_covs, blocked, frontier_xy = decision_estimates(state, actions, backend, fast=True)
     index = vmap.landmark_index(frontier_xy)
     near = (landmarks_near(vmap, frontier_xy, vmap.config.sensor_range) if has_frontier_extras(features)
@@ -225,8 +236,26 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     if has_frontier_extras(features):
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near],
                                 fused[np.searchsorted(landmarks, near)], vmap.config.sensor_range)
-    return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(state.session.graph.edges), extra, has_loop_length(features))
+    return select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
+                                                factor_edges(state.session.graph.edges), extra,
+                                                has_loop_length(features)), features)
+
+
+def graph_without_covariances(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
+                              features: str) -> ExplorationGraph:
+    """The graph of a feature set that reads no covariance (``graph.features=no_covariance``): no pose marginals,
+    no virtual-map fusion. The columns it leaves out are built from zero covariances and dropped by
+    :func:`~explore_rl.graph.exploration_graph.select_features`; the others are the covariance-reading graph's."""
+    poses = state.session.graph.poses_se2()
+    pose_covs = np.zeros((len(poses), 3, 3))
+    frontier_covs = np.zeros((len(actions), 2, 2))
+    extra = None
+    if has_frontier_extras(features):
+        extra = frontier_extras(state, actions, pose_covs, np.zeros((0, 2)), np.zeros((0, 2, 2)),
+                                vmap.config.sensor_range)
+    return select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
+                                                factor_edges(state.session.graph.edges), extra,
+                                                has_loop_length(features)), features)
 
 
 def graph_features_reference(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
@@ -242,8 +271,9 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
         covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, reference=True)
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
-    return graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                factor_edges(state.session.graph.edges), extra, has_loop_length(features))
+    return select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
+                                                factor_edges(state.session.graph.edges), extra,
+                                                has_loop_length(features)), features)
 
 
 def decision_estimates(state: ExplorationState, actions: list[Action], backend: str,

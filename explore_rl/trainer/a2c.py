@@ -45,7 +45,7 @@ from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env, policy_seed
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, WORKER
 from explore_rl.graph.features import feature_names
-from explore_rl.models.actor_critic import FEATURE_SCALE, make_actor, make_critic, widened_inputs
+from explore_rl.models.actor_critic import FEATURE_SCALE, make_actor, make_critic, selected_inputs
 from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
 from explore_rl.models.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
                                            save_checkpoint)
@@ -141,7 +141,8 @@ class Learner:
                                   f"set graph.features={actor_file.feature_set}")
         weights = build_actor(path, actor_file, self.config.model).state_dict()  # model and weights checked
         if len(wanted) > len(actor_file.features):
-            weights = widened_inputs(weights, self.actor.state_dict()[TRAINING_PREFIX + FEATURE_SCALE])
+            weights = selected_inputs(weights, actor_file.features, wanted,
+                                      self.actor.state_dict()[TRAINING_PREFIX + FEATURE_SCALE])
             log.info("%s reads graph.features=%s: widened to %s with zero weights on %s", path,
                      actor_file.feature_set, self.config.graph.features, ", ".join(wanted[len(actor_file.features):]))
         self.actor.load_state_dict({TRAINING_PREFIX + key: value for key, value in weights.items()})

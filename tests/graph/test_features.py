@@ -9,7 +9,17 @@ from explore_rl.config import load_config
 from explore_rl.envs import make_env
 from explore_rl.envs.keys import NEAREST_ACTION
 from explore_rl.graph.exploration_graph import graph_from_state
-from explore_rl.graph.features import FRONTIER_EXTRAS, PAPER, disc_fraction, feature_set_of, scales_for
+from explore_rl.graph.features import (
+    FRONTIER_EXTRAS,
+    PAPER,
+    built_names,
+    disc_fraction,
+    feature_names,
+    feature_set_of,
+    kept_columns,
+    reads_covariances,
+    scales_for,
+)
 
 FAST = ["scene=street", "slam=model", "planning.actions.max_frontiers=4", "explore.travel_budget=40"]
 
@@ -58,6 +68,31 @@ def test_extended_graph_adds_frontier_columns_from_the_state():
         assert rows[k, 3] == len(action.prediction.revisits)
         assert (rows[k, 4] > 0) == (len(action.prediction.revisits) > 0)
         assert 0.0 < rows[k, 5] <= 2 * config.planning.virtual_map.prior_std ** 2 + 1e-12
+
+
+def test_the_no_covariance_set_is_the_extended_one_without_its_covariance_columns():
+    """``no_covariance``: the extended columns that need no covariance, in the extended order, selected from the
+    extended graph the builder makes; every other set reads covariances and is built as it is."""
+    names = feature_names("no_covariance")
+    assert names == ("distance", "bearing", "identity", "path_length", "frontier_size", "unknown_nearby", "revisits")
+    assert feature_set_of(list(names)) == "no_covariance" and len(scales_for(7)) == 7
+    assert built_names("no_covariance") == PAPER + FRONTIER_EXTRAS
+    assert [built_names("no_covariance")[i] for i in kept_columns("no_covariance")] == list(names)
+    assert not reads_covariances("no_covariance")
+    for feature_set in ("paper", "extended", "loops"):
+        assert reads_covariances(feature_set) and kept_columns(feature_set) is None
+        assert built_names(feature_set) == feature_names(feature_set)
+    config = load_config(FAST)
+    env = make_env(config)
+    td = env.reset()
+    td = env.step(td.set("action", td[NEAREST_ACTION]))["next"]
+    decision = env.decision
+    context = env.em.decision_context(decision.state)
+    extended = graph_from_state(decision.state, context, decision.actions, "extended")
+    selected = graph_from_state(decision.state, context, decision.actions, "no_covariance")
+    assert selected.features.shape == (extended.num_nodes, 7)
+    np.testing.assert_array_equal(selected.features, extended.features[:, [1, 2, 3, 4, 5, 6, 7]])
+    np.testing.assert_array_equal(selected.edges, extended.edges)
 
 
 def test_the_env_and_the_learner_take_the_extended_set():

@@ -163,3 +163,39 @@ def test_a_failed_write_removes_its_temporary_file(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="disk full"):
         save_actor_file(out, contents)
     assert list(out.parent.iterdir()) == []
+
+
+def test_an_actor_blind_to_the_covariance_columns_converts_exactly(tmp_path, capsys):
+    """``with_features`` / ``explore-rl-export --features``: an extended actor whose input weights on the three
+    covariance columns are 0 becomes a ``no_covariance`` actor that gives the same logits on the other seven
+    columns; an actor that reads them is refused in one line (it would decide differently)."""
+    from explore_rl.deploy import main
+    from explore_rl.graph.features import feature_names
+    from explore_rl.models.actor_critic import INPUT_WEIGHT
+
+    path, _ = actor_file(tmp_path / "extended", load_config(["graph.features=extended", *TINY_MODEL]))
+    extended = read_actor_file(path)
+    blind_columns = [extended.features.index(name) for name in ("uncertainty", "revisit_uncertainty",
+                                                                  "landmark_uncertainty")]
+    weight = extended.weights[INPUT_WEIGHT].clone()
+    weight[:, blind_columns] = 0
+    blind = dataclasses.replace(extended, weights={**extended.weights, INPUT_WEIGHT: weight})
+    save_actor_file(tmp_path / "blind.pt", blind)
+    main([str(tmp_path / "blind.pt"), str(tmp_path / "no_cov.pt"), "--features", "no_covariance"])
+    wide, _ = load_actor(tmp_path / "blind.pt")
+    narrow, converted = load_actor(tmp_path / "no_cov.pt")
+    assert converted.feature_set == "no_covariance" and converted.meta["converted_from_features"] == "extended"
+    kept = [extended.features.index(name) for name in feature_names("no_covariance")]
+    torch.manual_seed(0)
+    x = torch.randn(2, 9, 10) * 3
+    adj = (torch.rand(2, 9, 9) > 0.6).float()
+    adj = torch.triu(adj, 1) + torch.triu(adj, 1).transpose(1, 2)
+    mask = torch.ones(2, 9, dtype=torch.bool)
+    with torch.no_grad():
+        torch.testing.assert_close(narrow(x[..., kept], adj, mask), wide(x, adj, mask), rtol=1e-5, atol=1e-6)
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main([str(path), str(tmp_path / "refused.pt"), "--features", "no_covariance"])
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--features no_covariance" in err and "would decide differently" in err
+    assert not (tmp_path / "refused.pt").exists()

@@ -105,7 +105,7 @@ def test_a_missing_actor_file_fails_with_one_line(tmp_path):
     assert "\n" not in message and str(missing) in message and "explore-rl-train" in message
 
 
-@pytest.mark.parametrize("features, width", [("extended", 10), ("loops", 11)])
+@pytest.mark.parametrize("features, width", [("extended", 10), ("loops", 11), ("no_covariance", 7)])
 def test_extended_features_are_the_environments_too(tmp_path, features, width):
     """``graph.features=extended`` (and ``loops``, its ``loop_length`` too): the runner's cheaper
     graph (landmarks near the frontiers only) equals the env's (the fully fused map), and the
@@ -285,12 +285,14 @@ def test_em_decides_among_the_actors_shortlist(tmp_path):
     assert "\n" not in str(error.value)
 
 
-def test_the_fast_path_decides_as_the_reference_on_real_states(tmp_path):
+@pytest.mark.parametrize("features", ["extended", "no_covariance"])
+def test_the_fast_path_decides_as_the_reference_on_real_states(tmp_path, features):
     """The fast decision path (candidates' revisits at once, one landmark fusion by EM's
-    fast rounds, KD-tree pairs, the encoding padded only to the graph's nodes) against the
-    first implementation on every decision of an office episode, extended features: the
-    same graph and frontier, within :class:`Equivalence` (round-off only)."""
-    config = load_config([*FAST, "graph.features=extended"])
+    fast rounds, KD-tree pairs, the encoding padded only to the graph's nodes; for
+    ``no_covariance`` no marginals and no fusion at all) against the first implementation
+    (which computes both and drops their columns) on every decision of an office episode:
+    the same graph and frontier, within :class:`Equivalence` (round-off only)."""
+    config = load_config([*FAST, f"graph.features={features}"])
     path, learner = actor_file(tmp_path, config)
     policy_config = PolicyConfig("learned", checkpoint=str(path))
     fast = LearnedPolicy(policy_config, config.planning, graph=config.graph)
@@ -398,3 +400,25 @@ def test_fast_parts_equal_their_references_on_real_states(setup):
                                                                reference=True), rtol=1e-10, atol=1e-18)
         checked += len(pose_idx)
     assert checked > 1000
+
+
+def test_a_policy_without_covariance_columns_computes_no_marginals(tmp_path, monkeypatch):
+    """``graph.features=no_covariance``: the runner's learned policy decides without the pose marginals and the
+    virtual map's fusion (both made to fail here), as the environment's actor does on the same states."""
+    import explore_rl.planning.learned as learned
+
+    config = load_config([*FAST, "graph.features=no_covariance"])
+    path, learner = actor_file(tmp_path, config)
+    policy = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path)), config.planning, graph=config.graph)
+
+    def fails(*args, **kwargs):
+        raise AssertionError("a covariance was computed")
+
+    choices = []
+    for decision, env_choice in env_decisions(config, learner, steps=3):
+        with monkeypatch.context() as patch:
+            for name in ("pose_marginals", "decision_estimates", "landmark_covariances"):
+                patch.setattr(learned, name, fails)
+            choices.append((policy.choose(decision.state), env_choice))
+        assert policy.last_graph.features.shape[1] == 7
+    assert all(mine == env for mine, env in choices) and len(choices) == 3
