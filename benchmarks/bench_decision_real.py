@@ -18,7 +18,9 @@ be the reference's decision under :class:`~explore_rl.planning.learned.Equivalen
 1e-6 of the largest, probabilities within 1e-6). ``em_over_shared`` is the structural
 bound: EM over the parts EM pays too (the action set and the pose marginals), i.e. the
 ratio if every part of the learned decision only it has (landmark fusion, extras, graph,
-encoding, forward) cost nothing. ``ms_top{k}`` times the hybrid ``policy.em_top_k=k`` (the
+encoding, forward) cost nothing; an actor of ``graph.features=no_covariance`` (``reads_covariances`` false)
+pays neither the marginals nor the landmarks in its ``choose``, though both are still timed as parts (what a
+covariance-reading actor pays). ``ms_top{k}`` times the hybrid ``policy.em_top_k=k`` (the
 actor shortlists k frontiers, EM picks among them; k in ``SHORTLISTS``) on the same states,
 ``em_over_top{k}`` EM over it. One torch thread, as ``explore-rl-eval``'s workers.
 
@@ -41,8 +43,13 @@ import torch  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.graph.encode import encode  # noqa: E402
-from explore_rl.graph.exploration_graph import action_frontiers, factor_edges, graph_from_estimates  # noqa: E402
-from explore_rl.graph.features import frontier_extras, has_loop_length  # noqa: E402
+from explore_rl.graph.exploration_graph import (  # noqa: E402
+    action_frontiers,
+    factor_edges,
+    graph_from_estimates,
+    select_features,
+)
+from explore_rl.graph.features import frontier_extras, has_loop_length, reads_covariances  # noqa: E402
 from explore_rl.planning.actions import select_actions  # noqa: E402
 from explore_rl.planning.em import EMPlanner, pose_covariances  # noqa: E402
 from explore_rl.planning.learned import (  # noqa: E402
@@ -82,7 +89,8 @@ def part_times(state: ExplorationState, policy: LearnedPolicy, repeats: int) -> 
     frontier_covs = frontier_covariances(vmap, poses, pose_covs, blocked, frontier_xy)
     edges = factor_edges(session.graph.edges)
     loops = has_loop_length(policy.features)  # graph.features=loops: loop_length from the graph's own edges
-    graph = graph_from_estimates(state, actions, poses, pose_covs, frontier_covs, edges, extras, loops)
+    graph = select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs, edges, extras, loops),
+                            policy.features)
     compact, padded = encode(graph, policy.max_nodes, compact=True), encode(graph, policy.max_nodes)
 
     def reference_landmarks() -> None:  # the frontiers' landmarks, then those near them, full distance matrices
@@ -155,7 +163,7 @@ def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: lis
         if state is None:
             break
         if decision % every == every - 1:
-            rows.append({"scene": scene, "decision": decision,
+            rows.append({"scene": scene, "decision": decision, "features": learned.features,
                          **measure_state(state, ms_state, learned, reference, em, repeats, hybrids)})
             r = rows[-1]
             print(f"{scene:7s} {decision:3d} {r['poses']:5d} {r['graph_nodes']:6d} {r['ms_state']:8.1f} "
@@ -230,7 +238,9 @@ def main() -> None:
     for scene, s in scenes.items():
         print(scene, s)
     print_parts(scenes)
+    features = rows[0]["features"] if rows else None
     emit({"benchmark": "decision_real", "quick": args.quick, "smoke": args.smoke, "actor": args.actor,
+          "features": features, "reads_covariances": reads_covariances(features) if features else None,
           **summary(rows), "scenes": scenes,
           "same_choice": all(r["same_choice"] for r in rows),
           "equivalent": all(r["equivalent"] for r in rows),

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from tests.benchmarks.smoke import run_script
 
 KEYS = ["ms_em", "ms_learned", "ms_learned_reference", "em_over_learned", "em_over_learned_decide",
@@ -31,13 +33,16 @@ def test_bench_decision_real_smoke(tmp_path: Path) -> None:
     assert result["ms_top2"] > 0 and abs(result["em_over_top2"] - result["ms_em"] / result["ms_top2"]) <= 0.011
 
 
-def test_bench_decision_real_takes_a_loops_actor(tmp_path: Path) -> None:
-    """``--actor`` of a ``graph.features=loops`` actor: it drives and decides, its parts are timed with the
-    ``loop_length`` column, and the fast path is still the reference's decision."""
+@pytest.mark.parametrize(("features", "covariances"), [("loops", True), ("no_covariance", False)])
+def test_bench_decision_real_takes_an_actor_of_other_features(tmp_path: Path, features: str, covariances: bool) -> None:
+    """``--actor`` of a ``graph.features=loops`` or ``no_covariance`` actor: it drives and decides, its parts are
+    timed with its own columns, the JSON names its features, and the fast path is still the reference's decision
+    (for ``no_covariance`` one without marginals against one that computes and drops them)."""
     from explore_rl.config import load_config
     from tests.policy_files import TINY_MODEL, actor_file
 
-    path, _ = actor_file(tmp_path / "loops", load_config([*TINY_MODEL, "graph.features=loops"]))
+    path, _ = actor_file(tmp_path / features, load_config([*TINY_MODEL, f"graph.features={features}"]))
     result = run_script("benchmarks/bench_decision_real.py", "--smoke", "--actor", str(path), cwd=tmp_path)
     assert result["actor"] == str(path) and result["states"] == 2
+    assert result["features"] == features and result["reads_covariances"] is covariances
     assert result["same_choice"] is True and result["equivalent"] is True
