@@ -77,8 +77,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 
 def actor_reads_stored(actor_path: str, stored: str) -> str:
-    """'' if the actor's node features are the leading columns of ``--features`` (feature sets
-    nest: paper, extended, loops), so the actor in the loop reads what is stored; else why not."""
+    """'' if the actor's node features are columns of ``--features`` (e.g. an extended actor and ``loops``, a
+    ``no_covariance`` one and ``extended``), so the actor in the loop reads what is stored; else why not."""
     from explore_rl.graph.features import feature_names
     from explore_rl.models.actor_file import read_actor_file
 
@@ -88,9 +88,9 @@ def actor_reads_stored(actor_path: str, stored: str) -> str:
         columns = list(feature_names(stored))
     except ValueError as error:
         return f"--features: {error}"
-    if columns[:len(reads)] != reads:
+    if any(name not in columns for name in reads):
         return (f"--features {stored}: the actor {actor_path} reads {actor_file.feature_set}, "
-                f"which is not the first columns of {stored}; store a set that holds it")
+                f"whose columns {stored} does not all hold; store a set that holds them")
     return ""
 
 
@@ -105,8 +105,10 @@ def task_seed(seed: int, task: int) -> int:
     return int(np.random.SeedSequence([seed, TASK_STREAM, task]).generate_state(1)[0])
 
 
-def make_chooser(actor_path: str | None, sample: bool, seed: int):
-    """Random valid frontiers (seeded), or the actor's greedy or sampled choice."""
+def make_chooser(actor_path: str | None, sample: bool, seed: int, stored: str | None = None):
+    """Random valid frontiers (seeded), or the actor's greedy or sampled choice; ``stored``: the
+    ``graph.features`` of the env's ``x``, of which the actor reads its own columns by name (default: its
+    features are the leading columns)."""
     import torch
 
     if actor_path is None:
@@ -115,13 +117,16 @@ def make_chooser(actor_path: str | None, sample: bool, seed: int):
     from explore_rl.models.actor_file import load_actor
     from explore_rl.models.actor_critic import greedy_row
 
+    from explore_rl.graph.features import feature_names
+
     actor, actor_file = load_actor(actor_path)
-    reads = actor_file.n_features  # the leading columns of the stored set (actor_reads_stored)
+    names = list(feature_names(stored)) if stored is not None else actor_file.features
+    reads = [names.index(name) for name in actor_file.features]  # actor_reads_stored checked they are there
     generator = torch.Generator().manual_seed(seed)
 
     def choose(td) -> int:
         with torch.no_grad():
-            logits = actor(td["x"][..., :reads], td["adj"], td["node_mask"])
+            logits = actor(td["x"][..., reads], td["adj"], td["node_mask"])
         if not sample:
             return greedy_row(logits, td["action_mask"])
         probs = torch.softmax(logits.masked_fill(~td["action_mask"], -torch.inf), -1)
@@ -143,7 +148,7 @@ def play_task(task: tuple) -> tuple[int, list, dict]:
     seed = task_seed(config.seed, k)
     env = make_env(config)
     env.set_seed(seed)
-    choose = make_chooser(actor_path, sample, seed)
+    choose = make_chooser(actor_path, sample, seed, config.graph.features)
     td, decisions, steps = env.reset(), [], 0
     layout = int(td["layout"])
     for _ in range(max_decisions):
