@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # plan.md: keep run.sh's finished buildings in runs/SET (val, val2, test: /work/runs/stop85_SET;
-# prior[_B]_val, prior_B_test, prior_X_val90, session 55's nodesN_val90 / nodesN_test and session 56's daggerN_val:
+# prior[_B]_val, prior_B_test, prior_X_val90, session 55's nodesN_val90 / nodesN_test and daggerN_val/_val90/_test:
 # a learned-only variant's trials of /work/runs/stop85_SET (a prior, another graph.max_nodes or a fine-tuned actor),
 # each building joined with EM's trial of runs/val, val2 or test; SETS="test": only those sets, the others' logs kept), then
 # study_zero_shot.py (the learned trials against EM's, paired by building):
@@ -48,7 +48,7 @@ street_garage() {
   $STUDY $HERE/runs/street_garage --out $HERE/targets_street_garage > $HERE/study_street_garage.log
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/street_garage')"
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   case $SET in
     street_garage) street_garage; continue;;
