@@ -38,26 +38,33 @@ def test_an_actor_in_the_loop_picks_its_most_probable_frontier(tmp_path):
     assert all(bool(td["action_mask"][sampled(td)]) for _ in range(20))
 
 
-def test_an_actor_reads_the_leading_columns_of_a_larger_stored_set(tmp_path):
+def complete_graph_pick(path, action_mask: list[bool], width: int, columns: list[int], seed: int):
+    """A complete graph of random node features ``width`` wide and the actor's greedy frontier reading ``columns``."""
     import torch
 
-    from explore_rl.config import load_config
     from explore_rl.models.actor_file import load_actor
+
+    torch.manual_seed(seed)
+    n = len(action_mask)
+    adj = torch.ones(n, n) - torch.eye(n)
+    mask = torch.tensor(action_mask)
+    td = {"x": torch.rand(n, width) * 4, "adj": adj, "node_mask": torch.ones(n, dtype=torch.bool), "action_mask": mask}
+    actor, _ = load_actor(path)
+    with torch.no_grad():
+        logits = actor(td["x"][:, columns], adj, td["node_mask"])
+    return td, int(torch.nonzero(mask).flatten()[logits[mask].argmax()])
+
+
+def test_an_actor_reads_the_leading_columns_of_a_larger_stored_set(tmp_path):
+
+    from explore_rl.config import load_config
     from tests.policy_files import TINY_MODEL, actor_file
 
     script = load_script("benchmarks/collect_decisions.py")
     path, _ = actor_file(tmp_path, load_config([*TINY_MODEL, "graph.features=extended"]))
     assert script.actor_reads_stored(str(path), "loops") == ""
     assert "--features paper" in script.actor_reads_stored(str(path), "paper")
-    torch.manual_seed(1)
-    n = 6
-    adj = torch.ones(n, n) - torch.eye(n)
-    mask = torch.tensor([False, True, True, True, False, True])
-    td = {"x": torch.rand(n, 11), "adj": adj, "node_mask": torch.ones(n, dtype=torch.bool), "action_mask": mask}
-    actor, _ = load_actor(path)
-    with torch.no_grad():
-        logits = actor(td["x"][:, :10], adj, td["node_mask"])
-    expected = int(torch.nonzero(mask).flatten()[logits[mask].argmax()])
+    td, expected = complete_graph_pick(path, [False, True, True, True, False, True], 11, list(range(10)), seed=1)
     assert script.make_chooser(str(path), sample=False, seed=0)(td) == expected
     assert script.make_chooser(str(path), sample=False, seed=0, stored="loops")(td) == expected
 
@@ -65,26 +72,16 @@ def test_an_actor_reads_the_leading_columns_of_a_larger_stored_set(tmp_path):
 def test_an_actor_reads_its_columns_of_a_stored_set_by_name(tmp_path):
     """A ``no_covariance`` actor in the loop of an ``extended`` collection reads its 7 columns out of the 10 by
     name (not the leading ones); a stored set without them is refused naming it."""
-    import torch
 
     from explore_rl.config import load_config
     from explore_rl.graph.features import feature_names
-    from explore_rl.models.actor_file import load_actor
     from tests.policy_files import TINY_MODEL, actor_file
 
     script = load_script("benchmarks/collect_decisions.py")
     path, _ = actor_file(tmp_path, load_config([*TINY_MODEL, "graph.features=no_covariance"]))
     assert script.actor_reads_stored(str(path), "extended") == ""
     assert "--features paper" in script.actor_reads_stored(str(path), "paper")
-    torch.manual_seed(2)
-    n = 7
-    adj = torch.ones(n, n) - torch.eye(n)
-    mask = torch.tensor([False, True, True, True, False, True, True])
-    td = {"x": torch.rand(n, 10) * 4, "adj": adj, "node_mask": torch.ones(n, dtype=torch.bool), "action_mask": mask}
     extended = list(feature_names("extended"))
     columns = [extended.index(name) for name in feature_names("no_covariance")]
-    actor, _ = load_actor(path)
-    with torch.no_grad():
-        logits = actor(td["x"][:, columns], adj, td["node_mask"])
-    expected = int(torch.nonzero(mask).flatten()[logits[mask].argmax()])
+    td, expected = complete_graph_pick(path, [False, True, True, True, False, True, True], 10, columns, seed=2)
     assert script.make_chooser(str(path), sample=False, seed=0, stored="extended")(td) == expected
