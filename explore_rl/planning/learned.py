@@ -236,9 +236,7 @@ def graph_features(state: ExplorationState, actions: list[Action], vmap: Virtual
     if has_frontier_extras(features):
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[near],
                                 fused[np.searchsorted(landmarks, near)], vmap.config.sensor_range)
-    return select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                                factor_edges(state.session.graph.edges), extra,
-                                                has_loop_length(features)), features)
+    return graph_of(state, actions, poses, pose_covs, frontier_covs, extra, features)
 
 
 def graph_without_covariances(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
@@ -253,9 +251,16 @@ def graph_without_covariances(state: ExplorationState, actions: list[Action], vm
     if has_frontier_extras(features):
         extra = frontier_extras(state, actions, pose_covs, np.zeros((0, 2)), np.zeros((0, 2, 2)),
                                 vmap.config.sensor_range)
-    return select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                                factor_edges(state.session.graph.edges), extra,
-                                                has_loop_length(features)), features)
+    return graph_of(state, actions, poses, pose_covs, frontier_covs, extra, features)
+
+
+def graph_of(state: ExplorationState, actions: list[Action], poses: np.ndarray, pose_covs: np.ndarray,
+             frontier_covs: np.ndarray, extra: np.ndarray | None, features: str) -> ExplorationGraph:
+    """The exploration graph of these estimates with the columns ``features`` reads (the fast paths and the
+    reference end here alike)."""
+    graph = graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
+                                 factor_edges(state.session.graph.edges), extra, has_loop_length(features))
+    return select_features(graph, features)
 
 
 def graph_features_reference(state: ExplorationState, actions: list[Action], vmap: VirtualMap,
@@ -271,9 +276,7 @@ def graph_features_reference(state: ExplorationState, actions: list[Action], vma
         covs = landmark_covariances(vmap, poses, pose_covs, blocked, landmarks, reference=True)
         extra = frontier_extras(state, actions, pose_covs, vmap.landmark_xy[landmarks], covs,
                                 vmap.config.sensor_range)
-    return select_features(graph_from_estimates(state, actions, poses, pose_covs, frontier_covs,
-                                                factor_edges(state.session.graph.edges), extra,
-                                                has_loop_length(features)), features)
+    return graph_of(state, actions, poses, pose_covs, frontier_covs, extra, features)
 
 
 def decision_estimates(state: ExplorationState, actions: list[Action], backend: str,
