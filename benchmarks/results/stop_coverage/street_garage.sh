@@ -3,7 +3,9 @@
 # explored or 600 m (graph.max_nodes=4096: a 600 m garage run holds ~1,500 keyframes); two workers.
 # OUT: another folder (default /work/runs/stop85_street_garage, one sub-folder per scene); POLICIES=[nearest,random]
 # OUT=/work/runs/stop85_street_garage_baselines: the other two policies, the same seeds (step D).
+# Session 58: EXTRA="policy.checkpoint=FILE" POLICIES=[learned] OUT=/work/runs/stop85_street_garage_NAME: another
+# actor on the same seeds (study.sh's set street_garage_NAME pairs it with EM's trials of runs/street_garage).
 set -e
 nice -n 5 /work/main/.venv/bin/explore-rl-eval -m scene=street,garage slam=icp evaluate.policies=${POLICIES:-[learned,em]} \
   evaluate.trials=10 evaluate.workers=2 evaluate.progress_bar=false explore.travel_budget=600 graph.max_nodes=4096 \
-  out=${OUT:-/work/runs/stop85_street_garage}
+  out=${OUT:-/work/runs/stop85_street_garage} $EXTRA

@@ -48,11 +48,29 @@ street_garage() {
   $STUDY $HERE/runs/street_garage --out $HERE/targets_street_garage > $HERE/study_street_garage.log
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/street_garage')"
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test 2>/dev/null | sed 's/^stop85_//' || true)
+# street_garage_variant SET: another actor's learned-only trials of /work/runs/stop85_SET (street_garage.sh with
+# EXTRA, session 58), each scene joined with EM's trials of runs/street_garage: study_SET.log against EM, and
+# direct_SET.log against the shipped default's trials there (paired trial by trial, --reference-policy learned)
+street_garage_variant() {
+  for scene in /work/runs/stop85_$1/*/; do
+    [ -e $scene/trials.jsonl ] || continue
+    name=$(basename $scene); mkdir -p $HERE/runs/$1/$name
+    cp $scene/summary.md $HERE/runs/$1/$name/
+    cat $scene/trials.jsonl > $HERE/runs/$1/$name/trials.jsonl
+    grep '"policy": "em"' $HERE/runs/street_garage/$name/trials.jsonl >> $HERE/runs/$1/$name/trials.jsonl
+  done
+  [ -d $HERE/runs/$1 ] || return 0
+  $STUDY $HERE/runs/$1 --out $HERE/targets_$1 > $HERE/study_$1.log
+  $STUDY $HERE/runs/$1 --reference $HERE/runs/street_garage --reference-policy learned --out $HERE/targets_$1_direct \
+    > $HERE/direct_$1.log
+}
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_street_garage_?* 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   case $SET in
     street_garage) street_garage; continue;;
-    prior*|nodes*|dagger*) join_prior $SET;;
+    street_garage_baselines) continue;;  # step D's nearest and random: part of street_garage's table
+    street_garage_*) street_garage_variant $SET; continue;;
+    prior*|nodes*|dagger*|blind*) join_prior $SET;;
     *) keep /work/runs/stop85_$SET $HERE/runs/$SET;;
   esac
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
