@@ -49,7 +49,8 @@ street_garage() {
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/street_garage')"
 }
 # street_garage_variant SET: another actor's learned-only trials of /work/runs/stop85_SET (street_garage.sh with
-# EXTRA, session 58), each scene joined with EM's trials of runs/street_garage: study_SET.log against EM, and
+# EXTRA, session 58), each scene joined with EM's, nearest frontier's and random's trials of runs/street_garage (the
+# same seeds and config): runs/SET/summary.md (all four policies), study_SET.log against EM, and
 # direct_SET.log against the shipped default's trials there (paired trial by trial, --reference-policy learned)
 street_garage_variant() {
   for scene in /work/runs/stop85_$1/*/; do
@@ -57,10 +58,11 @@ street_garage_variant() {
     name=$(basename $scene); mkdir -p $HERE/runs/$1/$name
     cp $scene/summary.md $HERE/runs/$1/$name/
     cat $scene/trials.jsonl > $HERE/runs/$1/$name/trials.jsonl
-    grep '"policy": "em"' $HERE/runs/street_garage/$name/trials.jsonl >> $HERE/runs/$1/$name/trials.jsonl
+    grep -v '"policy": "learned"' $HERE/runs/street_garage/$name/trials.jsonl >> $HERE/runs/$1/$name/trials.jsonl
   done
   [ -d $HERE/runs/$1 ] || return 0
   $STUDY $HERE/runs/$1 --out $HERE/targets_$1 > $HERE/study_$1.log
+  $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/$1')"  # the four-policy table and plots
   $STUDY $HERE/runs/$1 --reference $HERE/runs/street_garage --reference-policy learned --out $HERE/targets_$1_direct \
     > $HERE/direct_$1.log
 }
