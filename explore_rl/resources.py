@@ -31,7 +31,7 @@ def conf_dir() -> Path:
 
 def shipped_file(relative: str | Path) -> Path:
     """A file under the shipped ``policies/`` given as ``policies/...`` (e.g. the default
-    ``policies/buildings_sparse_em_choice/actor.pt``)."""
+    ``policies/buildings_dagger_em_choice/actor.pt``)."""
     relative = Path(relative)
     parts = relative.parts[1:] if relative.parts[:1] == ("policies",) else relative.parts
     return data_dir("policies").joinpath(*parts)

@@ -34,7 +34,7 @@ def test_pyproject_lists_every_package_and_maps_the_shipped_data():
     packages = {".".join(p.relative_to(ROOT).parts[:-1]) for p in (ROOT / "explore_rl").rglob("__init__.py")}
     assert set(setuptools["packages"]) == packages | {"explore_rl.conf", "explore_rl.policies"}
     assert setuptools["package-dir"] == {"explore_rl.conf": "conf", "explore_rl.policies": "policies"}
-    assert (ROOT / "conf" / "config.yaml").is_file() and (ROOT / "policies" / "buildings_sparse_em_choice" / "actor.pt").is_file()
+    assert (ROOT / "conf" / "config.yaml").is_file() and (ROOT / "policies" / "buildings_dagger_em_choice" / "actor.pt").is_file()
 
 
 def test_shipped_data_is_found_inside_the_package_first_then_beside_it(tmp_path, monkeypatch):

@@ -38,7 +38,7 @@ from explore_rl.models.checkpoint import FORMAT as TRAINING_FORMAT
 from explore_rl.models.checkpoint import CheckpointError, check_model, check_weights, read_checkpoint
 
 ACTOR_FORMAT = "explore_rl.actor/1"
-DEFAULT_ACTOR = "policies/buildings_sparse_em_choice/actor.pt"  # the shipped policy (explore_rl/resources.py finds it)
+DEFAULT_ACTOR = "policies/buildings_dagger_em_choice/actor.pt"  # the shipped policy (explore_rl/resources.py finds it)
 TRAINING_PREFIX = "module.0.module."  # ProbabilisticActor -> TensorDictModule -> GraphActor
 HOW_TO_GET_ONE = ("train one with `explore-rl-train scene=office slam=model out=runs/office`, then "
                   "`explore-rl-export runs/office/checkpoints/best.pt " + DEFAULT_ACTOR + "`")
@@ -65,7 +65,7 @@ class ActorFile:
 
 
 def resolve(path: str | Path | None) -> Path:
-    """``path``; None or the default ``policies/buildings_sparse_em_choice/actor.pt`` mean the shipped policy,
+    """``path``; None or the default ``policies/buildings_dagger_em_choice/actor.pt`` mean the shipped policy,
     found from the working directory or else where the package keeps it (the repository of
     an editable install, the wheel's package data)."""
     if path in (None, "") or Path(path) == Path(DEFAULT_ACTOR):

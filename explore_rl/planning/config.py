@@ -137,7 +137,7 @@ class PolicyConfig:
     diagnostic of the actor's ranking; 0 is the actor alone."""
 
     name: str = "nearest"
-    checkpoint: Optional[str] = "policies/buildings_sparse_em_choice/actor.pt"
+    checkpoint: Optional[str] = "policies/buildings_dagger_em_choice/actor.pt"
     revisit_bias: float = 0.0
     loop_bias: float = 0.0
     loop_bias_until_m: float = 0.0

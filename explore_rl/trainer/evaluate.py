@@ -356,7 +356,11 @@ def training_layouts(train_config: dict) -> tuple[str | None, range]:
     if trained is None:
         seed = scene.get("seed", train_config.get("seed", 0))
         if not isinstance(seed, int):  # an unresolved interpolation such as ${seed}
-            seed = int(train_config.get("seed", 0))
+            seed = train_config.get("seed", 0)
+        if not isinstance(seed, int):
+            raise ValueError("the policy's file names neither its training layouts (meta train_layouts) nor a "
+                             "scene seed: write them into it (actor file meta['train_layouts'] = [first, stop]) "
+                             "so that the protocol can refuse them")
         trained = range(seed, seed + 1)
     return scene.get("name"), trained
 

@@ -26,6 +26,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 import torch
 
@@ -124,14 +125,20 @@ def actor_weights(learner: Learner) -> dict[str, torch.Tensor]:
             if key.startswith(TRAINING_PREFIX)}
 
 
-def save_offline_actor(learner: Learner, path: str | Path, meta: dict | None = None) -> Path:
-    """An actor file of the learner's actor (explore_rl/models/actor_file.py)."""
+def save_offline_actor(learner: Learner, path: str | Path, meta: dict | None = None,
+                       layouts: Sequence[int] = ()) -> Path:
+    """An actor file of the learner's actor (explore_rl/models/actor_file.py). Its ``train_layouts`` (what the
+    evaluation protocol refuses to test on) are the config's ``env.train_layouts`` if set, else the span
+    ``[min, max + 1]`` of ``layouts``, the layouts of the decisions it trained on."""
     config = learner.config
+    trained = config.env.train_layouts
+    if trained is None and len(layouts):
+        trained = [int(min(layouts)), int(max(layouts)) + 1]
     actor_file = ActorFile(model=config.model, weights=actor_weights(learner),
                            features=list(feature_names(config.graph.features)),
                            graph_max_nodes=config.graph.max_nodes,
                            meta={"kind": f"offline distillation ({config.algo.distill_target})", "scene": config.scene.name,
-                                 "train_layouts": config.env.train_layouts, **(meta or {})})
+                                 "train_layouts": trained, **(meta or {})})
     return save_actor_file(path, actor_file)
 
 
@@ -177,7 +184,7 @@ def main(argv: list[str] | None = None) -> None:
     meta = {"dataset": str(Path(args.dataset).resolve()), "decisions": result.rows, "steps": result.steps,
             "layouts": len(layouts), "scenes": scenes, "seconds": round(result.seconds, 1),
             "lr": config.algo.lr, "batch": config.algo.dagger_batch, "seed": args.seed}
-    path = save_offline_actor(learner, args.out, meta)
+    path = save_offline_actor(learner, args.out, meta, layouts)
     final = sum(result.losses[-50:]) / max(len(result.losses[-50:]), 1)
     print(json.dumps({"actor": str(path), **meta, "final_loss": round(final, 4),
                       "skipped_steps": result.skipped_steps}))

@@ -12,15 +12,15 @@ N_FEATURES = 4
 
 @dataclass
 class Graph:
-    x: Tensor  # [n, 4]
+    x: Tensor  # [n, n_features] (4 unless asked)
     adj: Tensor  # [n, n] symmetric, metres, zero diagonal
     frontiers: Tensor  # [n] bool
 
 
-def random_graph(n: int, generator: torch.Generator, n_loops: int = 3) -> Graph:
+def random_graph(n: int, generator: torch.Generator, n_loops: int = 3, n_features: int = N_FEATURES) -> Graph:
     """A chain of ``n`` nodes about 0.5 m apart plus ``n_loops`` random longer edges; the
     last quarter of the nodes (at least one) are frontiers."""
-    x = torch.randn(n, N_FEATURES, generator=generator)
+    x = torch.randn(n, n_features, generator=generator)
     adj = torch.zeros(n, n)
     steps = 0.3 + 0.4 * torch.rand(max(n - 1, 0), generator=generator)
     idx = torch.arange(n - 1)
@@ -36,9 +36,9 @@ def random_graph(n: int, generator: torch.Generator, n_loops: int = 3) -> Graph:
     return Graph(x, adj, frontiers)
 
 
-def random_graphs(sizes: list[int], seed: int = 0) -> list[Graph]:
+def random_graphs(sizes: list[int], seed: int = 0, n_features: int = N_FEATURES) -> list[Graph]:
     generator = torch.Generator().manual_seed(seed)
-    return [random_graph(n, generator) for n in sizes]
+    return [random_graph(n, generator, n_features=n_features) for n in sizes]
 
 
 def pad(graphs: list[Graph], n_slots: int | None = None) -> dict[str, Tensor]:

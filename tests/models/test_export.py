@@ -60,3 +60,15 @@ def test_the_dense_single_graph_forward_matches_other_model_options(options):
         with torch.no_grad():
             got = ExportableActor(actor)(graph.x, graph.adj, torch.ones(len(graph.x), dtype=torch.bool))
         torch.testing.assert_close(got, eager(actor, graph), atol=1e-5, rtol=1e-4)
+
+
+def test_the_default_policys_shipped_program_agrees_with_its_actor_file():
+    """policies/<default>/actor.pt2 (what explore_rl.deploy loads) was exported from the same weights as actor.pt
+    (what policy=learned loads): a stale program beside a new actor file would fail here."""
+    from explore_rl.models.actor_file import DEFAULT_ACTOR, load_actor, resolve
+
+    actor, actor_file = load_actor(None)
+    program = ExportedActor.load(resolve(DEFAULT_ACTOR).with_name("actor.pt2"))
+    for graph in random_graphs([4, 57, 210], seed=3, n_features=actor_file.n_features):
+        got = program(graph.x, graph.adj, torch.ones(len(graph.x), dtype=torch.bool))
+        torch.testing.assert_close(got, eager(actor, graph), atol=1e-5, rtol=1e-4)

@@ -100,6 +100,9 @@ def test_training_layouts_are_refused():
     scene, ranged = training_layouts({"scene": {"name": "building"}, "env": {"train_layouts": [0, 500]}})
     with pytest.raises(ValueError, match="0..499"):
         check_held_out("building", [499], scene, ranged)
+    with pytest.raises(ValueError, match=r"meta\['train_layouts'\]") as error:  # nothing says what it trained on
+        training_layouts({"scene": {"name": "building", "seed": None}, "seed": None, "env": {"train_layouts": None}})
+    assert "\n" not in str(error.value)
 
 
 def test_the_cache_key_follows_what_changes_an_episode():

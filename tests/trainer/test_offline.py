@@ -9,6 +9,7 @@ from explore_rl.envs.keys import ACTION_REWARDS
 from explore_rl.models.actor_file import load_actor
 from explore_rl.trainer.a2c import Learner
 from explore_rl.trainer.dataset import DecisionDataset, padded_batch
+from explore_rl.trainer.evaluate import actor_training_config, training_layouts
 from explore_rl.trainer.imitation import compact_decisions, pad_graphs
 from explore_rl.trainer.offline import distill_loss_of, offline_config, save_offline_actor, train_offline
 from tests.trainer.test_a2c import batch, config_for  # noqa: F401 -- the module's real batch fixture
@@ -110,6 +111,10 @@ def test_the_distill_command_writes_an_actor_file_of_the_chosen_scenes(dataset, 
     assert summary["decisions"] == len(dataset) and summary["steps"] == 3 and summary["scenes"] == ["street"]
     _, actor_file = load_actor(out)
     assert actor_file.meta["decisions"] == len(dataset) and actor_file.meta["kind"].startswith("offline distillation")
+    layouts = dataset.rows()["layout"]  # what it trained on: the protocol refuses that span, and only it
+    assert actor_file.meta["train_layouts"] == [int(layouts.min()), int(layouts.max()) + 1]
+    trained_scene, trained = training_layouts(actor_training_config(out))
+    assert trained == range(int(layouts.min()), int(layouts.max()) + 1)
     for bad, message in ((["--scenes", "office"], "--scenes office: the dataset"),
                          (["--steps", "0"], "--steps must be >= 1"),
                          (["--dataset", str(tmp_path / "none")], "no dataset there")):

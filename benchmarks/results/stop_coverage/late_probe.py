@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> None:
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
                                                   "fraction": args.fraction, "steps": args.steps,
-                                                  "blind": args.blind})
+                                                  "blind": args.blind}, layouts[rows])
     if args.blind:
         blind_actor_file(path, args.blind)
     tenth = max(1, len(result.losses) // 10)
