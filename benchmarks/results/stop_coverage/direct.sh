@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
 # plan.md (session 55): a learned-only variant's validation buildings (runs/SET, joined by study.sh) against the
 # shipped default's trials of the same buildings (runs/val, runs/val2: the same config, graph.max_nodes=4096),
-# paired by building (study_zero_shot.py --reference-policy learned): direct_SET.log, targets_SET_direct.
+# paired by building (study_zero_shot.py --reference-policy learned): direct_SET.log, targets_SET_direct; a held-out
+# set (SET ending in _test, session 58) against the default's trials of runs/test.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 SET=${1:?"give the set, e.g. bash direct.sh nodes512_val90"}
 [ -d $HERE/runs/$SET ] || { echo "runs/$SET: not there; run SETS=$SET study.sh first" >&2; exit 2; }
+case $SET in *_test) REFS="test";; *) REFS="val val2";; esac  # held-out sets: the default's trials of runs/test
 SPLIT=$(mktemp -d)
-for ref in val val2; do  # one report per reference folder, as study_zero_shot.py pairs them
+for ref in $REFS; do  # one report per reference folder, as study_zero_shot.py pairs them
   mkdir -p $SPLIT/$ref
   for d in $HERE/runs/$ref/building_*/; do
     b=$(basename $d)
     [ -e $HERE/runs/$SET/$b/trials.jsonl ] && ln -s $HERE/runs/$SET/$b $SPLIT/$ref/$b
   done
 done
-$PY $RESULTS/../study_zero_shot.py $SPLIT/val $SPLIT/val2 --reference $HERE/runs/val $HERE/runs/val2 \
+$PY $RESULTS/../study_zero_shot.py $(for r in $REFS; do echo $SPLIT/$r; done) --reference $(for r in $REFS; do echo $HERE/runs/$r; done) \
   --reference-policy learned --pool ${SET}_direct --out $HERE/targets_${SET}_direct > $HERE/direct_$SET.log
 rm -rf $SPLIT

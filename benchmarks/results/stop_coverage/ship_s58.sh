@@ -10,7 +10,7 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 cd $HERE/../../..  # the repository
-ACTOR=$HERE/actors/s56_all9k.pt
+ACTOR=policies/buildings_dagger_em_choice/actor.pt  # actors/s56_all9k.pt's weights, its training layouts in meta
 PREVIOUS=policies/buildings_sparse_em_choice/actor.pt
 RUN="bash benchmarks/results/keyframes_45deg/run.sh"
 for stage in "$@"; do
@@ -18,7 +18,7 @@ for stage in "$@"; do
   case $stage in
     heldout)
       POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2103 LAST=2119 OUT=/work/runs/stop85_dagger9k_test \
-        EXTRA="policy.checkpoint=$ACTOR" $RUN;;
+        EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN;;
     protocol)
       PROTOCOL="nice -n 5 .venv/bin/python benchmarks/study_learning.py --policy $ACTOR --compare $PREVIOUS \
         --max-decisions 10 --workers 2 --set graph.features=extended"
