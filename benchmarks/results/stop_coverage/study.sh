@@ -66,11 +66,26 @@ street_garage_variant() {
   $STUDY $HERE/runs/$1 --reference $HERE/runs/street_garage --reference-policy learned --out $HERE/targets_$1_direct \
     > $HERE/direct_$1.log
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_street_garage_?* 2>/dev/null | sed 's/^stop85_//' || true)
+# baselines_test: nearest frontier's and random's trials of /work/runs/stop85_baselines_test (ship_s58.sh baselines,
+# session 58) with EM's of runs/test and the shipped default's of runs/dagger9k_test, building by building:
+# runs/baselines_test/summary.md, one table of all four policies (explore_rl.comparison.combine)
+baselines_test() {
+  for d in /work/runs/stop85_baselines_test/building_*/; do
+    [ -e $d/trials.jsonl ] || continue
+    b=$(basename $d)
+    [ -e $HERE/runs/dagger9k_test/$b/trials.jsonl ] || continue
+    mkdir -p $HERE/runs/baselines_test/$b
+    cat $HERE/runs/dagger9k_test/$b/trials.jsonl $d/trials.jsonl > $HERE/runs/baselines_test/$b/trials.jsonl
+  done
+  [ -d $HERE/runs/baselines_test ] || return 0
+  $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/baselines_test')"
+}
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   case $SET in
     street_garage) street_garage; continue;;
-    street_garage_baselines) continue;;  # step D's nearest and random: part of street_garage's table
+    street_garage_baselines) continue;;
+    baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*) join_prior $SET;;
     *) keep /work/runs/stop85_$SET $HERE/runs/$SET;;
