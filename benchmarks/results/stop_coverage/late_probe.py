@@ -1,6 +1,7 @@
 """Is the late band data-bound? Fine-tune an actor offline on all, or only the late, decisions of a dataset.
 
-From an actor file (the shipped one by default), ``--steps`` offline steps of EM-choice distillation (not A2C;
+From an actor file (by default the one sessions 55-58 fine-tuned from, the default until session 58), ``--steps``
+offline steps of EM-choice distillation (not A2C;
 ``explore_rl.trainer.offline.train_offline``) on the decisions of a ``benchmarks/collect_decisions.py`` dataset whose
 layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never trains), either all of them (``--arm all``)
 or only those from decision ``--late-from`` of their episode on (``--arm late``). Session 56 added ``--late-repeat N``
@@ -28,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
 from one_step import decision_index, held_out  # noqa: E402
 from revisit_probe import greedy_learner  # noqa: E402
 
-SHIPPED = "policies/buildings_sparse_em_choice/actor.pt"
+START = "policies/buildings_sparse_em_choice/actor.pt"  # the default of sessions 35-57, every fine-tune's start
 
 
 def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from: int,
@@ -95,7 +96,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
     parser.add_argument("--arm", choices=("all", "late"), required=True)
-    parser.add_argument("--actor", default=SHIPPED, help="the actor file fine-tuned (default: the shipped one)")
+    parser.add_argument("--actor", default=START, help="the actor file fine-tuned (default: " + START + ")")
     parser.add_argument("--late-from", type=int, default=30, help="arm late: first decision index trained on")
     parser.add_argument("--late-repeat", type=int, default=1,
                         help="draw the late decisions this many times as often (1 = uniform)")
