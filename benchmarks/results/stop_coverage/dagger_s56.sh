@@ -7,6 +7,9 @@
 #   bash dagger_s56.sh curve  the addenda's learning curve: a seeded quarter and half of the episodes (3,000 steps),
 #                             all with 9,000 steps, and that actor continued 9,000 more (18,000 in all):
 #                             curve_s56.log, one_step_s56_{q25,q50,all9k,all18k}_vs_shipped.log
+#   bash dagger_s56.sh round2 session 58's addendum: all9k's recipe unchanged on the dataset grown by a second DAgger
+#                             round (the new default in the loop), scored against actors/s56_all9k.pt and the previous
+#                             default: round2_s58.log, one_step_s58_round2_vs_{all9k,shipped}.log
 set -e
 cd "$(dirname "$0")/../../.."  # the repository
 S=benchmarks/results/stop_coverage
@@ -17,7 +20,7 @@ ERR=/work/runs/dagger_s56.err
 versus() {  # versus NAME ACTOR: the actor against the shipped one on the held-out decisions
   $PY $S/one_step.py $DATA --held-out --actor $2 --versus $SHIPPED > $S/one_step_s56_$1_vs_shipped.log 2>> $ERR
 }
-case ${1:?"give a stage: arms or curve"} in
+case ${1:?"give a stage: arms, curve or round2"} in
   arms)
     {
       $PY $S/late_probe.py $DATA --arm all --steps 3000 --out /work/runs/s56_uniform.pt
@@ -37,6 +40,12 @@ case ${1:?"give a stage: arms or curve"} in
       $PY $S/late_probe.py $DATA --arm all $opts --out /work/runs/s56_$arm.pt >> $S/curve_s56.log 2>> $ERR
       versus $arm /work/runs/s56_$arm.pt
     done;;
-  *) echo "stage $1: give arms or curve" >&2; exit 2;;
+  round2)
+    $PY $S/late_probe.py $DATA --arm all --steps 9000 --out /work/runs/s58_round2.pt > $S/round2_s58.log 2>> $ERR
+    $PY $S/one_step.py $DATA --held-out --actor /work/runs/s58_round2.pt --versus $S/actors/s56_all9k.pt \
+      > $S/one_step_s58_round2_vs_all9k.log 2>> $ERR
+    $PY $S/one_step.py $DATA --held-out --actor /work/runs/s58_round2.pt --versus $SHIPPED \
+      > $S/one_step_s58_round2_vs_shipped.log 2>> $ERR;;
+  *) echo "stage $1: give arms, curve or round2" >&2; exit 2;;
 esac
 echo done >> $ERR
