@@ -228,9 +228,12 @@ def main() -> None:
         if not layouts:
             raise SystemExit("error: --policy needs --layouts S1 S2 ... (held-out scene seeds)")
         config = load_config([f"scene={args.scene}", f"slam={args.slam}", *extra, *args.set])
-        trained_scene, trained = training_layouts(actor_training_config(args.policy))
         try:
+            trained_scene, trained = training_layouts(actor_training_config(args.policy))
             is_held_out = held_out(args, config.scene.name, layouts, trained_scene, trained, args.policy)
+            if args.compare:  # the other actor's layouts are held out too (checked before any episode)
+                other_scene, other_trained = training_layouts(actor_training_config(args.compare))
+                held_out(args, config.scene.name, layouts, other_scene, other_trained, args.compare)
             for actor in filter(None, (args.policy, args.compare)):
                 check_actor_features(config, actor)
         except ValueError as error:
@@ -239,11 +242,6 @@ def main() -> None:
         summary = summarize(results)
         print_summary(f"{args.policy} on {config.scene.name} ({'held out' if is_held_out else 'IN-SAMPLE'})", summary)
         if args.compare:
-            other_scene, other_trained = training_layouts(actor_training_config(args.compare))
-            try:
-                held_out(args, config.scene.name, layouts, other_scene, other_trained, args.compare)
-            except ValueError as error:
-                raise SystemExit(f"error: {error}") from None
             summary["compare"] = compare_policy(config, Path(args.compare), layouts, args.starts, args.max_decisions,
                                                 args.workers, out, results)
             figures = summary["compare"]
