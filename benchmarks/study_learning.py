@@ -210,8 +210,8 @@ def held_out(args, scene: str, layouts: list[int], trained_scene: str | None, tr
     return True
 
 
-def main() -> None:
-    args = parse_args()
+def main(argv: list[str] | None = None) -> None:
+    args = parse_args(argv)
     extra = ["planning.actions.max_frontiers=3", "model.hidden=16", "model.mlp_hidden=16"] if args.smoke else []
     out = output_dir(args.out or None, RESULTS, args.smoke, "learning")
     out.mkdir(parents=True, exist_ok=True)

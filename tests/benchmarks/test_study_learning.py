@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.benchmarks.smoke import load_script, run_script
+from tests.benchmarks.smoke import load_script, run_main, run_script
 
 
 def test_study_learning_smoke(tmp_path):
@@ -63,13 +63,10 @@ def test_policy_difference_is_paired_on_the_same_episodes():
 
 
 @pytest.mark.parametrize("flag", ["--policy", "--compare"])
-def test_an_actor_that_names_no_training_layouts_is_refused_before_any_episode(tmp_path, flag):
+def test_an_actor_that_names_no_training_layouts_is_refused_before_any_episode(tmp_path, capsys, flag):
     """The protocol cannot refuse the layouts of a file that names none: one line, before any episode (an
     offline-distilled file once crashed with a TypeError, and --compare was checked only after the first policy
     played)."""
-    import subprocess
-    import sys
-
     from explore_rl.models.actor_file import read_actor_file, save_actor_file
 
     actor_file = read_actor_file("policies/office_paper/actor.pt")
@@ -77,10 +74,10 @@ def test_an_actor_that_names_no_training_layouts_is_refused_before_any_episode(t
     nameless = save_actor_file(tmp_path / "nameless.pt", actor_file)
     other = {"--policy": ["--compare", "policies/office_paper/actor.pt"], "--compare": ["--policy",
              "policies/office_paper/actor.pt"]}[flag]
-    result = subprocess.run([sys.executable, "benchmarks/study_learning.py", flag, str(nameless), *other,
-                             "--layouts", "2000", "--starts", "1", "--max-decisions", "1", "--out", str(tmp_path)],
-                            capture_output=True, text=True, timeout=120)
-    assert result.returncode != 0
-    assert result.stderr.strip().splitlines() == [result.stderr.strip()]  # one line, no traceback
-    assert "meta['train_layouts']" in result.stderr
+    code, _, err = run_main("benchmarks/study_learning.py", [flag, str(nameless), *other, "--layouts", "2000",
+                                                             "--starts", "1", "--max-decisions", "1", "--out",
+                                                             str(tmp_path)], capsys)
+    assert code != 0
+    assert err.strip().splitlines() == [err.strip()]  # one line, no traceback
+    assert "meta['train_layouts']" in err
     assert not (tmp_path / "episodes.jsonl").exists()  # not one episode played
