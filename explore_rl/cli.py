@@ -290,6 +290,7 @@ def train(cfg: DictConfig) -> None:
     from explore_rl.trainer.a2c import TrainingRun, resolve_device
 
     config, _ = build_or_fail(cfg, lambda c: resolve_device(c.train.device))  # a missing GPU: one line
+    check_scene_file(config)
     check_optional_dependencies(config)
     run_dir = training_run_dir(config)
     check_run_dir(config, run_dir)
@@ -320,8 +321,18 @@ def evaluation_dir(config: Config) -> Path:
     return Path(config.out)
 
 
+def check_scene_file(config: Config) -> None:
+    """``scene=file``: read and check the scene file once, here, so that a missing or bad one fails in one line
+    before any trial or worker starts (each would otherwise fail on its own). Procedural scenes need nothing."""
+    if config.scene.name == "file":
+        from explore_rl.scene.build import make_layout
+
+        make_layout(config.scene, config.robot.radius)  # SceneFileError: FILE: FIELD: PROBLEM
+
+
 def check_evaluation(config: Config) -> None:
-    """Fail before any trial runs if the learned policy's actor file is unusable."""
+    """Fail before any trial runs if the scene file or the learned policy's actor file is unusable."""
+    check_scene_file(config)
     if "learned" in config.evaluate.policies:
         from explore_rl.models.actor_file import load_actor
 

@@ -128,6 +128,16 @@ def test_every_command_rejects_a_bad_value_in_one_line_before_running(name, over
     assert not out.exists()
 
 
+@pytest.mark.parametrize("name", ["evaluate", "train"])
+def test_a_missing_scene_file_fails_in_one_line_before_any_trial_or_worker(name, tmp_path):
+    """Trials and collector workers each build their scene: without a check up front every one of them failed on
+    its own (explore-rl-eval wrote a report of 40 failed trials)."""
+    out = tmp_path / "out"
+    line = error_line(command(name, "scene=file", f"scene.path={tmp_path / 'nope.yaml'}", f"out={out}", cwd=tmp_path))
+    assert "nope.yaml: file not found" in line
+    assert not out.exists()
+
+
 def test_a_value_error_raised_inside_a_run_reaches_the_user_as_one_line(tmp_path):
     """Not from validation: raised while exploring (here by a patched Explorer.run)."""
     script = ("import explore_rl.runner as runner\n"
