@@ -2,7 +2,10 @@
 
 Splits the time per decision into decide (frontiers, Dijkstra, paths, policy) and drive
 (LiDAR, registration, iSAM2, maps), and runs the random-frontier policy on the same scene
-and seed as the in-run baseline.
+and seed as the in-run baseline. The run's metrics (map error, ATE, explored, ...: the
+runner logs them after every decision) are timed on its final session, at once
+(``ms_metrics``) and keyframe by keyframe as first written (``ms_metrics_reference``),
+with the two map errors' relative difference.
 
     python benchmarks/bench_explore.py [--quick | --smoke]
 """
@@ -16,13 +19,24 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import emit, machine, parse_args  # noqa: E402
+from common import emit, machine, parse_args, time_call  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
 
 
-def explore(policy: str, max_decisions: int, extra: list[str]) -> dict:
+def metrics_cost(explorer: Explorer, repeats: int) -> dict:
+    """Milliseconds of the session's metrics, vectorised and by the reference code, and
+    the relative difference of their map errors (round-off only)."""
+    session = explorer.session
+    fast, reference = session.metrics(), session.metrics(reference=True)
+    return {"ms_metrics": round(1e3 * time_call(session.metrics, repeats), 2),
+            "ms_metrics_reference": round(1e3 * time_call(lambda: session.metrics(reference=True), repeats), 2),
+            "map_error_rel_diff": abs(fast.map_error_m - reference.map_error_m) / max(reference.map_error_m, 1e-300),
+            "metrics_keyframes": len(session.keyframes)}
+
+
+def explore(policy: str, max_decisions: int, extra: list[str], metrics_repeats: int = 0) -> dict:
     explorer = Explorer(load_config(["scene=street", f"policy={policy}", "seed=0", "explore.progress_bar=false",
                                      f"explore.max_decisions={max_decisions}", *extra]))
     start = time.perf_counter()
@@ -45,21 +59,24 @@ def explore(policy: str, max_decisions: int, extra: list[str]) -> dict:
         "travel_m": round(explorer.robot.travelled, 2),
         "map_error_m": round(records[-1].map_error_m, 4) if records else 0.0,
         "wall_s": round(wall, 1),
+        **(metrics_cost(explorer, metrics_repeats) if metrics_repeats else {}),
     }
 
 
 def main() -> None:
     args = parse_args(__doc__.splitlines()[0])
     max_decisions = 2 if args.smoke else 12 if args.quick else 300
-    nearest = explore("nearest", max_decisions, [])
+    nearest = explore("nearest", max_decisions, [], metrics_repeats=2 if args.smoke else 10)
     random = explore("random", max_decisions, [])
     for r in (nearest, random):
         print(f"{r['policy']:8s} {r['status']:22s} {r['decisions']:3d} decisions  "
               f"{r['ms_per_decision']:7.1f} ms/decision (decide {r['ms_decide']:.1f}, drive {r['ms_drive']:.1f})  "
               f"{r['keyframes_per_s']:.1f} kf/s  explored {100 * r['explored']:.1f} %  {r['travel_m']:.1f} m")
     print("per keyframe:", nearest["ms_per_keyframe_by_stage"])
+    print(f"metrics at {nearest['metrics_keyframes']} keyframes: {nearest['ms_metrics']:.2f} ms "
+          f"(reference {nearest['ms_metrics_reference']:.2f} ms), map errors {nearest['map_error_rel_diff']:.1e} apart")
     emit({"benchmark": "explore", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
-          **nearest,
+          **nearest, "metrics_speedup": round(nearest["ms_metrics_reference"] / nearest["ms_metrics"], 2),
           "baseline_random": random})
 
 

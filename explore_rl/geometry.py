@@ -50,6 +50,19 @@ def se2_to_matrix(pose, z: float = 0.0) -> np.ndarray:
                     dtype=float)
 
 
+def se2_matrices(poses: np.ndarray, z: float = 0.0) -> np.ndarray:
+    """``(N, 4, 4)``: :func:`se2_to_matrix` of every planar pose ``(N, 3)`` at once (numpy's
+    vectorised cos/sin may differ from ``math``'s in the last bit: for metrics, not for
+    the maps, which keep the transforms they were built with)."""
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    out = np.zeros((len(poses), 4, 4))
+    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1] = c, -s, s, c
+    out[:, 0, 3], out[:, 1, 3], out[:, 2, 3] = poses[:, 0], poses[:, 1], z
+    out[:, 2, 2] = out[:, 3, 3] = 1.0
+    return out
+
+
 def matrix_to_se2(T: np.ndarray) -> np.ndarray:
     """Planar ``[x, y, yaw]`` of a 4x4 transform (drops z, roll, pitch)."""
     return np.array(matrix_to_se2_tuple(T))

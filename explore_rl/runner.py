@@ -108,6 +108,8 @@ class Explorer:
         self.last_state: ExplorationState | None = None
         self.last_choice: int = -1
         self._safety_seconds = 0.0  # the layer's time already booked to a decision
+        self.ms_observe = 0.0  # the last state's observation (frontiers, Dijkstra, paths): part of ms_decide
+        self._ms_escape = 0.0  # backing off an obstacle before that state: motion, booked to ms_drive
 
     # ------------------------------------------------------------------ observe
 
@@ -185,7 +187,7 @@ class Explorer:
 
     def done(self) -> Status:
         cfg = self.config.explore
-        explored = self.session.metrics().explored
+        explored = self.session.explored()
         if explored >= cfg.target_explored:
             return Status.EXPLORED
         if self.robot.travelled >= cfg.travel_budget:
@@ -195,13 +197,15 @@ class Explorer:
         return Status.RUNNING
 
     def step(self) -> DecisionRecord | None:
-        """One decision: observe, choose, drive, log. None (and a final status) when done."""
-        start = time.perf_counter()
+        """One decision: observe, choose, drive, log. None (and a final status) when done.
+        ``ms_decide`` is what deciding costs a robot: observing the state and choosing
+        (not the stop check's ground-truth metrics, nor an escape's motion, which drives)."""
         state = self.next_state()
         if state is None:
             return None
+        start = time.perf_counter()
         chosen = int(self.policy.choose(state))
-        return self.act(state, chosen, ms_decide=1e3 * (time.perf_counter() - start))
+        return self.act(state, chosen, ms_decide=self.ms_observe + 1e3 * (time.perf_counter() - start))
 
     def next_state(self) -> ExplorationState | None:
         """The state of the next decision (after backing off an obstacle if needed), or
@@ -214,8 +218,12 @@ class Explorer:
         if status is not Status.RUNNING:
             self.result.status = status
             return None
+        start = time.perf_counter()
         self.escape()
+        observed = time.perf_counter()
         state = self.observe()
+        self._ms_escape += 1e3 * (observed - start)
+        self.ms_observe = 1e3 * (time.perf_counter() - observed)
         if state is None:
             self.result.status = Status.NO_FRONTIER
             log.info("no reachable frontier: exploration ends")
@@ -236,7 +244,8 @@ class Explorer:
             log.warning("path to frontier %s blocked at once at %s (belief %s, clearance %.3f m); skipping it",
                         candidate.frontier.waypoint_xy.round(2), self.robot.true_pose[:2].round(2),
                         self.robot.belief_pose[:2].round(2), self.robot.footprint_clearance())
-        record = self.record(state, chosen, path_status, ms_decide, 1e3 * (time.perf_counter() - start))
+        ms_drive, self._ms_escape = 1e3 * (time.perf_counter() - start) + self._ms_escape, 0.0
+        record = self.record(state, chosen, path_status, ms_decide, ms_drive)
         self.result.records.append(record)
         return record
 

@@ -63,6 +63,52 @@ def test_decision_records_are_logged():
     assert all(0 <= r.explored <= 1 for r in result.records)
 
 
+class FakeClock:
+    """``time.perf_counter`` that only moves when a patched stage ticks it."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+    def tick(self, seconds: float):
+        def advance(*args, **kwargs):
+            self.now += seconds
+        return advance
+
+
+def test_ms_decide_holds_observing_and_choosing_only(monkeypatch):
+    """The stop check (ground-truth metrics) and an escape (motion) are not deciding: with
+    stages that take known times on a fake clock, ``ms_decide`` is observe + choose and the
+    escape lands in ``ms_drive``; the stop check reads the explored fraction, never the
+    whole metrics (their map error grows with the keyframes)."""
+    import explore_rl.runner as runner
+
+    config = load_config("scene=street", "explore.max_decisions=2", "explore.progress_bar=false", "policy=nearest")
+    explorer = Explorer(config)
+    clock = FakeClock()
+    monkeypatch.setattr(runner, "time", clock)
+    observe, choose, drive = explorer.observe, explorer.policy.choose, explorer.drive
+
+    def timed(stage, seconds):
+        def run(*args, **kwargs):
+            clock.now += seconds
+            return stage(*args, **kwargs)
+        return run
+
+    monkeypatch.setattr(explorer, "done", lambda inner=explorer.done: (clock.tick(100.0)(), inner())[1])
+    monkeypatch.setattr(explorer, "escape", clock.tick(5.0))
+    monkeypatch.setattr(explorer, "observe", timed(observe, 2.0))
+    monkeypatch.setattr(explorer.policy, "choose", timed(choose, 1.0))
+    monkeypatch.setattr(explorer, "drive", timed(drive, 7.0))
+    monkeypatch.setattr(explorer.session, "metrics", lambda *a, **k: pytest.fail("the stop check read the metrics"))
+    monkeypatch.setattr(explorer, "record", lambda *args: args)  # (state, chosen, status, ms_decide, ms_drive)
+    _, _, _, ms_decide, ms_drive = explorer.step()
+    assert ms_decide == pytest.approx(3000.0)
+    assert ms_drive == pytest.approx(12000.0)
+
+
 def test_paths_ended_by_the_step_cap_are_counted_in_the_records():
     """robot.path_step_factor so small that no path can finish: every drive is capped,
     counted as such and as blocked, and the run still ends cleanly."""

@@ -10,7 +10,8 @@ from explore_rl.robot import Robot
 from explore_rl.runner import Explorer
 from explore_rl.scene.build import make_scene
 from explore_rl.sensors.lidar import Lidar, Scan
-from explore_rl.slam.session import SlamSession, map_error, reference_maps
+from explore_rl.geometry import se2_matrices, se2_to_matrix
+from explore_rl.slam.session import ErrorSamples, SlamSession, map_error, map_error_reference, reference_maps
 
 
 def make_config(*overrides):
@@ -51,6 +52,34 @@ def test_map_error_of_a_rotation_grows_with_point_range():
     rotated[:2, :2] = [[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]
     expected = np.mean([2 * np.sin(angle / 2) * r for r in (1.0, 3.0)])
     assert map_error(rotated[None], true, points) == pytest.approx(expected, rel=1e-9)
+
+
+def test_map_error_at_once_equals_the_keyframe_by_keyframe_reference_on_a_real_session(session):
+    """The vectorised map error is the first code's up to round-off, on real keyframes with
+    estimates off the truth by a rotation and shift that differ per keyframe, and with a
+    keyframe whose point sample is empty (skipped by both)."""
+    truth = session.true_poses()
+    rng = np.random.default_rng(0)
+    estimates = truth + rng.normal(0.0, [0.05, 0.05, 0.02], size=truth.shape)
+    height = session.lidar.config.mount_height
+    points = [k.error_points for k in session.keyframes]
+    points[1] = points[1][:0]
+    reference = map_error_reference(session.world_from_sensor(estimates), session.world_from_sensor(truth), points)
+    fast = map_error(se2_matrices(estimates, height), se2_matrices(truth, height), points)
+    grown = ErrorSamples().extend(points[:3]).extend(points[:3]).extend(points)  # as a session extends its own
+    assert reference > 0.01
+    assert fast == pytest.approx(reference, rel=1e-12)
+    assert map_error(se2_matrices(estimates, height), se2_matrices(truth, height), grown) == pytest.approx(
+        reference, rel=1e-12)
+    assert session.metrics(estimates).map_error_m == pytest.approx(
+        session.metrics(estimates, reference=True).map_error_m, rel=1e-12)
+    assert map_error(np.zeros((1, 4, 4)), np.zeros((1, 4, 4)), [np.zeros((0, 3))]) == 0.0
+
+
+def test_se2_matrices_equal_the_per_pose_transforms():
+    poses = np.random.default_rng(1).uniform([-20, -20, -4], [20, 20, 4], size=(50, 3))
+    expected = np.array([se2_to_matrix(p, 0.3) for p in poses])
+    np.testing.assert_allclose(se2_matrices(poses, 0.3), expected, rtol=0, atol=1e-14)
 
 
 def test_session_records_keyframes_and_explores(session):
