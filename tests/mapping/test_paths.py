@@ -228,3 +228,62 @@ def test_office_frontiers_are_reachable_from_the_start(office):
         assert path is not None
         assert office.truth.drivable[tuple(frontier.waypoint_cell)]
         assert office.is_free(path, radius).all()  # the real footprint never touches a solid
+
+
+def assert_same_fields(windowed, whole):
+    np.testing.assert_array_equal(windowed.distances, whole.distances)
+    np.testing.assert_array_equal(windowed.predecessors, whole.predecessors)
+    np.testing.assert_array_equal(windowed.start_cell, whole.start_cell)
+
+
+@pytest.mark.parametrize("corner_cutting", [False, True])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_windowed_graph_gives_the_whole_grids_distances_and_paths(seed, corner_cutting):
+    """Dijkstra over the window holding the traversable cells equals it over the whole grid
+    (the reference), bit for bit, predecessors included; the map sits inside a larger,
+    untraversable grid so the window is smaller than the grid."""
+    grid, traversable, cost, start = random_map(seed)
+    inner = traversable.shape
+    traversable = np.pad(traversable, ((3, 5), (7, 2)), constant_values=False)
+    cost = np.pad(cost, ((3, 5), (7, 2)), constant_values=np.inf)
+    grid = GridSpec((0.0, 0.0), RES, traversable.shape)
+    start_xy = grid.cell_to_world(np.array(start) + [3, 7])
+    config = PathConfig(allow_corner_cutting=corner_cutting)
+    planner = PathPlanner(grid, traversable, cost, config)
+    assert np.all(planner.high - planner.low <= inner) and np.all(planner.high - planner.low < grid.shape)
+    windowed = planner.from_start(start_xy)
+    whole = PathPlanner(grid, traversable, cost, config, reference=True).from_start(start_xy)
+    assert_same_fields(windowed, whole)
+    for goal in np.argwhere(np.isfinite(whole.distances))[::7]:
+        np.testing.assert_array_equal(windowed.path_to(goal), whole.path_to(goal))
+
+
+def test_the_windowed_graph_equals_the_whole_grids_on_real_explorations():
+    """Street and office after a few decisions of a real exploration: the same distance
+    fields and frontier paths from the windowed graph as from the whole grid's."""
+    from explore_rl.config import load_config
+    from explore_rl.runner import Explorer
+
+    for scene in ("street", "office"):
+        explorer = Explorer(load_config([f"scene={scene}", "policy=nearest", "explore.progress_bar=false"]))
+        for _ in range(3):
+            explorer.step()
+        occupancy, grid, paths = explorer.session.occupancy, explorer.scene.grid, explorer.config.mapping.paths
+        traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, grid,
+                                           explorer.config.robot.radius, paths)
+        start = explorer.robot.belief_pose[:2]
+        windowed = PathPlanner(grid, traversable, cost, paths).from_start(start)
+        whole = PathPlanner(grid, traversable, cost, paths, reference=True).from_start(start)
+        assert np.isfinite(whole.distances).sum() > 1000
+        assert_same_fields(windowed, whole)
+        for frontier in find_frontiers(occupancy.known_free, occupancy.unknown, grid, explorer.config.mapping.frontiers,
+                                       traversable):
+            np.testing.assert_array_equal(windowed.path_to(frontier.waypoint_cell),
+                                          whole.path_to(frontier.waypoint_cell))
+
+
+def test_a_map_without_traversable_cells_reaches_nothing():
+    grid = GridSpec((0.0, 0.0), RES, (6, 8))
+    blocked = np.zeros(grid.shape, dtype=bool)
+    field = PathPlanner(grid, blocked, np.full(grid.shape, np.inf)).from_start(np.array([0.25, 0.25]))
+    assert field.start_cell is None and not np.isfinite(field.distances).any()
