@@ -10,7 +10,7 @@ level from the encoded edges) and to its
 reference (the first implementation, EM's marginals, padded to ``graph.max_nodes``),
 and to nearest frontier. Times are each policy's ``choose`` (after a warm-up call, the
 mean of the same number of repeats for EM and the learned policy: 3, ``--quick`` 2);
-``ms_state`` is the state itself (frontiers, Dijkstra, paths: what every policy pays
+``ms_state`` is the state itself (the runner's ``observe``: frontiers, Dijkstra, paths; what every policy pays
 before choosing, timed once per decision), so ``em_over_learned_decide``
 compares what the runner's ``ms_decide`` column holds. On every state the fast path must
 be the reference's decision under :class:`~explore_rl.planning.learned.Equivalence`
@@ -30,7 +30,6 @@ actor shortlists k frontiers, EM picks among them; k in ``SHORTLISTS``) on the s
 from __future__ import annotations
 
 import sys
-import time
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -157,9 +156,8 @@ def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: lis
         hybrid.features = learned.features
     rows = []
     for decision in range(max_decisions):
-        start = time.perf_counter()
         state = explorer.next_state()
-        ms_state = 1e3 * (time.perf_counter() - start)
+        ms_state = explorer.ms_observe  # the runner's share of ms_decide before the choice
         if state is None:
             break
         if decision % every == every - 1:
