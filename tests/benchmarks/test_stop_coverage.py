@@ -303,6 +303,15 @@ def test_one_step_scores_an_actor_on_a_dataset(scored_data, capsys):
         for column in ("greedy", "expected"):
             low, high = row[f"{column}_ci95"]
             assert low - 1e-9 <= row[column] <= high + 1e-9 and -10 < row[column] <= 1.0 + 1e-9
+    code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--gate", "0.2", "1"], capsys)
+    assert code == 0, err
+    gates = {row["gate"]: row for row in json_lines(out) if "gate" in row}
+    assert gates[0.2]["handed_to_em"] == 5 and gates[1.0]["handed_to_em"] == 25
+    assert gates[1.0]["gated"] == pytest.approx(1.0) and gates[1.0]["random_gated"] == pytest.approx(1.0)
+    for column in ("gated", "random_gated"):  # EM's stored choice is the best frontier: handing it over never loses
+        assert gates[0.2][column] >= rows["all"]["greedy"] - 1e-9
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--gate", "0"], capsys)
+    assert code == 2 and "--gate 0.0" in err.strip().splitlines()[-1]
     code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--held-out"], capsys)
     held = {row["group"]: row for row in json_lines(out)}
     assert code == 0 and held["all"]["decisions"] == held["decisions 0-14"]["decisions"] == 5

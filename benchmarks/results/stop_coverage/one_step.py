@@ -13,8 +13,11 @@ with a bootstrap 95 % interval over episodes. Groups: all decisions; by the deci
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
 the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
 layouts no fine-tuning of ``late_probe.py`` saw; ``--training``: only the others (session 56); ``--versus FILE``:
-also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired). One
-JSON line per group.
+also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired);
+``--gate F ...`` (session 59): over all scored decisions, the greedy gap when the fraction F of decisions the actor is
+least sure of (lowest top probability) take EM's stored choice instead, beside the same fraction drawn at random (a
+seeded control): what the actor's confidence knows about its own mistakes, i.e. what a hybrid that calls EM only there
+would close. One JSON line per group (and per gate fraction).
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
         [--held-out | --training] [--versus FILE]
@@ -68,7 +71,7 @@ def rewards_of(dataset, actor, columns: list[int], scored: np.ndarray) -> dict[s
     from explore_rl.envs.keys import ACTION_REWARDS
     from explore_rl.trainer.dataset import padded_batch
 
-    out: dict[str, list] = {"greedy": [], "expected": [], "em": [], "uniform": [], "best": []}
+    out: dict[str, list] = {"greedy": [], "expected": [], "em": [], "uniform": [], "best": [], "confidence": []}
     with torch.no_grad():
         for chunk in torch.from_numpy(np.flatnonzero(scored)).split(CHUNK):
             rows = dataset.rows(chunk)
@@ -81,6 +84,7 @@ def rewards_of(dataset, actor, columns: list[int], scored: np.ndarray) -> dict[s
             out["em"].append(rewards.gather(-1, rows["em_action"][:, None])[:, 0])
             out["uniform"].append((rewards * mask).sum(-1) / mask.sum(-1))
             out["best"].append(rewards.masked_fill(~mask, -torch.inf).max(-1).values)
+            out["confidence"].append(probs.max(-1).values)
     full = {key: np.full(len(scored), np.nan) for key in out}
     for key, values in out.items():
         full[key][scored] = torch.cat(values).double().numpy()
@@ -106,6 +110,28 @@ def group_line(name: str, rows: np.ndarray, rewards: dict[str, np.ndarray], epis
             line[f"{column}_minus_versus"] = round(gap(rewards, column, rows) - gap(versus, column, rows), 4)
             line[f"{column}_minus_versus_ci95"] = cluster_bootstrap(
                 lambda at: gap(rewards, column, at) - gap(versus, column, at), members, draws=BOOTSTRAP)
+    return line
+
+
+def gate_line(fraction: float, rows: np.ndarray, rewards: dict[str, np.ndarray], episodes: np.ndarray,
+              seed: int = 0) -> dict:
+    """The greedy gap over ``rows`` when the ``fraction`` of them with the lowest actor confidence take EM's stored
+    choice, and when the same number drawn at random (``seed``) do; intervals by the episode bootstrap."""
+    count = int(round(fraction * len(rows)))
+    unsure = rows[np.argsort(rewards["confidence"][rows], kind="stable")[:count]]
+    drawn = np.random.default_rng(seed).choice(rows, size=count, replace=False)
+    _, episode_of = np.unique(episodes[rows], axis=0, return_inverse=True)
+    members = [rows[episode_of.ravel() == e] for e in range(episode_of.max() + 1)]
+    line: dict = {"group": "all", "gate": fraction, "decisions": int(len(rows)), "handed_to_em": count}
+    for name, handed in (("gated", unsure), ("random_gated", drawn)):
+        picked = rewards["greedy"].copy()
+        picked[handed] = rewards["em"][handed]
+
+        def gap(at: np.ndarray, picked: np.ndarray = picked) -> float:
+            return gap_closed(picked[at], rewards["uniform"][at], rewards["best"][at])
+
+        line[name] = round(gap(rows), 4)
+        line[f"{name}_ci95"] = cluster_bootstrap(gap, members, draws=BOOTSTRAP)
     return line
 
 
@@ -146,11 +172,15 @@ def main(argv: list[str] | None = None) -> None:
                         help="another actor file: also each group's gap difference to it, paired by episode")
     parser.add_argument("--frontiers", type=int, nargs="+", default=[1, 8, 10],
                         help="smallest action-set size of each group, ascending from 1")
+    parser.add_argument("--gate", type=float, nargs="+", default=[], metavar="F",
+                        help="fractions of the least confident decisions handed to EM's stored choice (0 < F <= 1)")
     args = parser.parse_args(argv)
     if args.frontiers[0] != 1 or any(b <= a for a, b in zip(args.frontiers, args.frontiers[1:])):
         parser.error(f"--frontiers {' '.join(map(str, args.frontiers))}: give ascending sizes starting at 1")
     if args.bands[0] != 0 or any(b <= a for a, b in zip(args.bands, args.bands[1:])):
         parser.error(f"--bands {' '.join(map(str, args.bands))}: give ascending indices starting at 0")
+    if not all(0 < f <= 1 for f in args.gate):
+        parser.error(f"--gate {' '.join(map(str, args.gate))}: give fractions in (0, 1]")
     if not (args.dataset / "dataset.json").is_file():
         parser.error(f"{args.dataset}: no dataset.json there; give a folder of benchmarks/collect_decisions.py")
 
@@ -188,6 +218,8 @@ def main(argv: list[str] | None = None) -> None:
         rows = rows[scored[rows]]
         if len(rows):
             print(json.dumps(group_line(name, rows, rewards, episodes, versus)))
+    for fraction in args.gate:
+        print(json.dumps(gate_line(fraction, np.flatnonzero(scored), rewards, episodes)))
 
 
 if __name__ == "__main__":
