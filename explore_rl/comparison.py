@@ -130,6 +130,21 @@ def _init_worker(threads: int) -> None:
 
 
 @contextmanager
+def _torch_threads(threads: int):
+    """Torch's intra-op threads set to ``threads`` for trials run in this process (as the
+    workers' initialiser sets theirs), the caller's count restored after. The BLAS of an
+    already imported numpy keeps its own: set ``OPENBLAS_NUM_THREADS`` before starting."""
+    import torch
+
+    saved = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(saved)
+
+
+@contextmanager
 def _thread_limits(threads: int):
     """BLAS/OpenMP thread counts for the worker processes spawned inside (the parent's
     libraries are already initialised; the variables only reach new processes)."""
@@ -166,8 +181,9 @@ def run_trials(trials: Sequence[Trial], workers: int = 1, threads: int = 1, prog
 
     try:
         if workers <= 1 or len(trials) <= 1:
-            for i, trial in enumerate(trials):
-                finished(i, run_trial(trial))
+            with _torch_threads(threads):
+                for i, trial in enumerate(trials):
+                    finished(i, run_trial(trial))
         else:
             context = multiprocessing.get_context("spawn")
             with _thread_limits(threads), ProcessPoolExecutor(max_workers=workers, mp_context=context,

@@ -147,3 +147,21 @@ def test_matched_travel_compares_policies_after_the_reference_policys_mean_trave
     text = comparison.matched_travel_markdown([entry])
     assert "| scene | travel m | learned | em | nearest |" in text and "| street | 6.0 | 0.400 ± 0.000 |" in text
     assert comparison.matched_travel([r for r in runs if r["policy"] != "em"]) == []
+
+
+def test_trials_run_in_this_process_use_evaluate_threads_torch_threads(monkeypatch):
+    """With one worker the trials run in-process: torch uses ``evaluate.threads`` during them (as the spawned workers'
+    initialiser sets it), and the caller's count is back afterwards."""
+    import torch
+
+    seen = []
+    monkeypatch.setattr(comparison, "run_trial", lambda trial: seen.append(torch.get_num_threads()) or {
+        "scene": "s", "policy": "p", "trial": trial, "status": "explored"})
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        results = comparison.run_trials([0, 1], workers=1, threads=1, progress=False)
+        assert seen == [1, 1] and [r["trial"] for r in results] == [0, 1]
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)

@@ -7,6 +7,7 @@
 # FIRST=1040 LAST=1099: other building seeds (frontend_shift/plan.md's addendum).
 # BUDGET=m MAX_NODES=n: another travel budget and graph.max_nodes (stop_coverage/plan.md).
 set -e
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1  # two streams on two cores: one thread each
 SLAM=${SLAM:-icp_45deg}
 OUT=${OUT:-/work/runs/kf45_val}
 POLICIES=${POLICIES:-[learned,em]}
