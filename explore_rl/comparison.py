@@ -98,13 +98,28 @@ def scene_label(config: Config) -> str:
     return config.scene.name
 
 
+def cpu_model() -> str:
+    """The processor's model name (Linux ``/proc/cpuinfo``, else :mod:`platform`'s guess): each
+    trial records it, so decision times from different machines are not divided by each other."""
+    try:
+        with open("/proc/cpuinfo") as info:
+            for line in info:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    import platform
+
+    return platform.processor() or platform.machine()
+
+
 def run_trial(trial: Trial) -> dict:
     """Explore once; the decision table and final figures. An exception is caught and
     reported (``status: "error"``) so one bad trial does not lose a study."""
     from explore_rl.runner import Explorer
 
     base = {"scene": scene_label(trial.config), "policy": trial.policy, "trial": trial.trial,
-            "seed": int(trial.config.seed)}
+            "seed": int(trial.config.seed), "cpu": cpu_model()}
     try:
         explorer = Explorer(trial.config)
         result = explorer.run()

@@ -157,3 +157,22 @@ def test_the_markdown_lists_the_trials_to_resolve_each_target():
     assert entry["trials_to_resolve"]["error"] <= 2  # equal errors, no spread
     text = zero_shot.targets_markdown([entry])
     assert "| scene | trials now | travel | map error | speedup |" in text and "| street | 2 |" in text
+
+
+def test_decision_times_of_several_machines_never_meet_the_speed_target():
+    """Trials record their processor: a speedup divides one machine's decision times by another's only as a
+    flagged figure, never a met target; one machine's is a verdict as before, unrecorded ones (old reports) too."""
+    def timed(policy, trial, ms, cpu):
+        return {**run(policy, trial, [50.0, 100.0], [0.4, 0.9], [0.1, 0.1], ms=ms), "cpu": cpu}
+
+    mixed = [timed("learned", 0, 10.0, "A"), timed("learned", 1, 11.0, "A"),
+             timed("em", 0, 100.0, "B"), timed("em", 1, 110.0, "B")]
+    (entry,) = zero_shot.check_targets(mixed, resamples=200)
+    assert entry["speedup"] == pytest.approx(10.0) and entry["speedup_ci95"][0] >= 5.0
+    assert entry["decision_times"] == "several machines" and not entry["speed_met"]
+    assert "(several machines)" in zero_shot.targets_markdown([entry])
+    (entry,) = zero_shot.check_targets([{**t, "cpu": "A"} for t in mixed], resamples=200)
+    assert entry["decision_times"] == "one machine" and entry["speed_met"]
+    (entry,) = zero_shot.check_targets([{k: v for k, v in t.items() if k != "cpu"} for t in mixed], resamples=200)
+    assert entry["decision_times"] == "unrecorded" and entry["speed_met"]
+    assert comparison.cpu_model()  # this machine's name, recorded in every trial
