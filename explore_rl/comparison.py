@@ -133,9 +133,10 @@ def run_trial(trial: Trial) -> dict:
                                                   "contacts", "blocked_decisions", "safety_interventions",
                                                   "capped_paths")}
     finals["min_clearance_m"] = float(last.get("min_clearance_m", float("nan")))
+    hybrid = {"em_decisions": explorer.policy.em_decisions} if hasattr(explorer.policy, "em_decisions") else {}
     return {**base, "status": result.status.value, "error": None, "decisions": len(rows), "travel_m": travel,
             **finals, "ms_decide": float(np.mean([r["ms_decide"] for r in rows])) if rows else float("nan"),
-            "explored_per_m": finals["explored"] / max(travel, 1e-9), "rows": rows}
+            "explored_per_m": finals["explored"] / max(travel, 1e-9), **hybrid, "rows": rows}
 
 
 def _init_worker(threads: int) -> None:

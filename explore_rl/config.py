@@ -151,6 +151,10 @@ def validate(config: Config) -> None:
     checks.non_negative("policy.loop_bias_until_m", config.policy.loop_bias_until_m)
     checks.non_negative("policy.closure_bias", config.policy.closure_bias)
     checks.at_least("policy.em_top_k", config.policy.em_top_k, 0)
+    checks.in_range("policy.em_below_confidence", config.policy.em_below_confidence, 0.0, 1.0)
+    if config.policy.em_below_confidence > 0 and config.policy.em_top_k > 0:
+        raise ValueError(f"policy.em_below_confidence={config.policy.em_below_confidence} and policy.em_top_k="
+                         f"{config.policy.em_top_k}: two hybrids; set one of them and leave the other 0")
     config.env.validate()
     if config.graph.max_nodes <= config.planning.actions.max_frontiers:
         raise ValueError(f"graph.max_nodes={config.graph.max_nodes} must exceed planning.actions.max_frontiers="

@@ -134,7 +134,11 @@ class PolicyConfig:
     ``em_top_k`` (learned only): if > 0, the EM planner picks among the actor's ``k`` most
     probable frontiers (after the priors) by its utility -- a hybrid, not the learned
     policy alone, that costs about what EM costs (EM's decision context dominates); a
-    diagnostic of the actor's ranking; 0 is the actor alone."""
+    diagnostic of the actor's ranking; 0 is the actor alone.
+
+    ``em_below_confidence`` (learned only): if > 0, EM decides over the whole action set
+    whenever the actor's top probability (after the priors) is below it -- a hybrid that pays
+    EM only where the actor is unsure; 0 is the actor alone, 1 nearly always EM."""
 
     name: str = "nearest"
     checkpoint: Optional[str] = "policies/buildings_dagger_em_choice/actor.pt"
@@ -143,3 +147,4 @@ class PolicyConfig:
     loop_bias_until_m: float = 0.0
     closure_bias: float = 0.0
     em_top_k: int = 0
+    em_below_confidence: float = 0.0

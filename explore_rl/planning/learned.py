@@ -443,6 +443,11 @@ def shortlist(actions: list[Action], graph: ExplorationGraph, encoded: EncodedGr
     return [action for action in actions if action.candidate in chosen]
 
 
+def top_probability(logits: torch.Tensor, action_mask: torch.Tensor) -> float:
+    """The largest probability of the actor's distribution over the ``action_mask`` rows."""
+    return float(torch.softmax(logits.masked_fill(~action_mask, float("-inf")), -1).max())
+
+
 def choose_row(actor: GraphActor, encoded: EncodedGraph) -> int:
     """Row of the most probable action of ``encoded`` (:func:`greedy_row`)."""
     return greedy_row(actor_logits(actor, encoded), torch.from_numpy(encoded.action_mask))
@@ -539,6 +544,8 @@ class LearnedPolicy:
     EM planner (``planning.em``, ``robot`` for its odometry sigmas) picks among them by its
     Algorithm 1 utility -- not the learned policy alone: it pays EM's decision context and
     ``k`` candidates' utilities (:attr:`last_evaluation`); ``k`` >= the action set is EM.
+    ``config.em_below_confidence`` > 0: EM decides over the whole action set when the actor's
+    top probability is below it (:attr:`em_decisions` counts them), the actor elsewhere.
     """
 
     name = "learned"
@@ -566,6 +573,7 @@ class LearnedPolicy:
         self.robot = robot
         self._em: EMPlanner | None = None
         self.last_evaluation: EMEvaluation | None = None
+        self.decisions = self.em_decisions = 0  # choices made, and those EM made (em_below_confidence)
 
     def virtual_map(self, grid: GridSpec) -> VirtualMap:
         """The virtual map geometry on ``grid`` (built once; its state is never used)."""
@@ -588,10 +596,15 @@ class LearnedPolicy:
         after_forward = time.perf_counter()
         self.last_actions, self.last_graph, self.last_encoded, self.last_logits = actions, graph, encoded, logits
         self.last_evaluation = None
+        self.decisions += 1
         if self.config.em_top_k > 0:  # EM decides among the actor's shortlist
             rows = shortlist_rows(biased, action_mask, self.config.em_top_k)
             self.last_evaluation = self.em_planner().evaluate(state, shortlist(actions, graph, encoded, rows))
             self.last_choice = self.last_evaluation.chosen
+        elif top_probability(biased, action_mask) < self.config.em_below_confidence:  # unsure: EM decides
+            self.last_evaluation = self.em_planner().evaluate(state, actions)
+            self.last_choice = self.last_evaluation.chosen
+            self.em_decisions += 1
         else:
             self.last_choice = int(graph.candidate[encoded.nodes[greedy_row(biased, action_mask)]])
         end = time.perf_counter()
@@ -602,7 +615,7 @@ class LearnedPolicy:
         return self.last_choice
 
     def em_planner(self) -> EMPlanner:
-        """The EM planner that decides among the shortlist (``policy.em_top_k``; built once: its
+        """The EM planner of the hybrids (``policy.em_top_k``, ``policy.em_below_confidence``; built once: its
         observation cache carries over between decisions, as EM's own does)."""
         if self._em is None:
             self._em = EMPlanner(self.config, self.planning, robot=self.robot)

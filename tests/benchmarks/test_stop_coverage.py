@@ -307,6 +307,7 @@ def test_one_step_scores_an_actor_on_a_dataset(scored_data, capsys):
     assert code == 0, err
     gates = {row["gate"]: row for row in json_lines(out) if "gate" in row}
     assert gates[0.2]["handed_to_em"] == 5 and gates[1.0]["handed_to_em"] == 25
+    assert 0 < gates[0.2]["confidence_cut"] <= 1 and gates[1.0]["confidence_cut"] == 1.0
     assert gates[1.0]["gated"] == pytest.approx(1.0) and gates[1.0]["random_gated"] == pytest.approx(1.0)
     for column in ("gated", "random_gated"):  # EM's stored choice is the best frontier: handing it over never loses
         assert gates[0.2][column] >= rows["all"]["greedy"] - 1e-9

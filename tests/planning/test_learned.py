@@ -28,6 +28,7 @@ from explore_rl.planning.learned import (
     pairs_in_range_reference,
     pose_marginals,
     revisit_counts,
+    top_probability,
     visible_pairs_of,
 )
 from explore_rl.planning.policies import PolicyConfig, make_policy
@@ -283,6 +284,45 @@ def test_em_decides_among_the_actors_shortlist(tmp_path):
     with pytest.raises(ValueError, match="policy.em_top_k") as error:
         load_config([*FAST, "policy.em_top_k=-1"])
     assert "\n" not in str(error.value)
+
+
+def test_em_decides_where_the_actor_is_unsure(tmp_path):
+    """``policy.em_below_confidence=c``: EM's own choice over the whole action set on the decisions
+    whose top probability is below ``c``, the actor's greedy choice on the others (counted);
+    c = 1 is EM wherever there is a choice, a tiny c the actor. Out-of-range values and both
+    hybrids at once are refused in one line naming the keys."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+
+    def gated(c: float) -> LearnedPolicy:
+        return LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), em_below_confidence=c), config.planning,
+                             graph=config.graph, robot=config.robot)
+
+    em = EMPlanner(PolicyConfig("em"), config.planning, robot=config.robot)
+    confidences = []
+    decisions = list(env_decisions(config, learner, steps=6))
+    for decision, env_choice in decisions:
+        alone = gated(1e-9)
+        assert alone.choose(decision.state) == env_choice and alone.em_decisions == 0
+        mask = torch.from_numpy(alone.last_encoded.action_mask)
+        confidences.append(top_probability(alone.last_logits, mask))
+    middle = float(np.median(confidences))
+    for c in (1.0, middle):
+        policy = gated(c)
+        for (decision, env_choice), confidence in zip(decisions, confidences):
+            unsure = confidence < c
+            expected = em.evaluate(decision.state).chosen if unsure else env_choice
+            assert policy.choose(decision.state) == expected
+            assert (policy.last_evaluation is not None) == unsure
+        assert policy.em_decisions == sum(confidence < c for confidence in confidences)
+        assert policy.decisions == len(decisions)
+    assert 0 < sum(confidence < middle for confidence in confidences) < len(decisions)
+    with pytest.raises(ValueError, match="policy.em_below_confidence") as error:
+        load_config([*FAST, "policy.em_below_confidence=1.5"])
+    assert len(str(error.value).splitlines()) == 1
+    with pytest.raises(ValueError, match="two hybrids") as error:
+        load_config([*FAST, "policy.em_below_confidence=0.3", "policy.em_top_k=2"])
+    assert len(str(error.value).splitlines()) == 1
 
 
 @pytest.mark.parametrize("features", ["extended", "no_covariance"])

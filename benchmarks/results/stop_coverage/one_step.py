@@ -17,7 +17,7 @@ also each group's difference to another actor, with a bootstrap that draws the s
 ``--gate F ...`` (session 59): over all scored decisions, the greedy gap when the fraction F of decisions the actor is
 least sure of (lowest top probability) take EM's stored choice instead, beside the same fraction drawn at random (a
 seeded control): what the actor's confidence knows about its own mistakes, i.e. what a hybrid that calls EM only there
-would close. One JSON line per group (and per gate fraction).
+would close (``confidence_cut``: the ``policy.em_below_confidence`` that hands those decisions to EM). One JSON line per group (and per gate fraction).
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
         [--held-out | --training] [--versus FILE]
@@ -118,11 +118,15 @@ def gate_line(fraction: float, rows: np.ndarray, rewards: dict[str, np.ndarray],
     """The greedy gap over ``rows`` when the ``fraction`` of them with the lowest actor confidence take EM's stored
     choice, and when the same number drawn at random (``seed``) do; intervals by the episode bootstrap."""
     count = int(round(fraction * len(rows)))
-    unsure = rows[np.argsort(rewards["confidence"][rows], kind="stable")[:count]]
+    order = np.argsort(rewards["confidence"][rows], kind="stable")
+    unsure = rows[order[:count]]
+    # the policy.em_below_confidence that hands these decisions over (those strictly below it; ties aside)
+    cut = float(rewards["confidence"][rows][order[count]]) if count < len(rows) else 1.0
     drawn = np.random.default_rng(seed).choice(rows, size=count, replace=False)
     _, episode_of = np.unique(episodes[rows], axis=0, return_inverse=True)
     members = [rows[episode_of.ravel() == e] for e in range(episode_of.max() + 1)]
-    line: dict = {"group": "all", "gate": fraction, "decisions": int(len(rows)), "handed_to_em": count}
+    line: dict = {"group": "all", "gate": fraction, "decisions": int(len(rows)), "handed_to_em": count,
+                  "confidence_cut": round(cut, 6)}
     for name, handed in (("gated", unsure), ("random_gated", drawn)):
         picked = rewards["greedy"].copy()
         picked[handed] = rewards["em"][handed]
