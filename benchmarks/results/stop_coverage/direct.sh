@@ -2,13 +2,14 @@
 # plan.md (session 55): a learned-only variant's validation buildings (runs/SET, joined by study.sh) against the
 # shipped default's trials of the same buildings (runs/val, runs/val2: the same config, graph.max_nodes=4096),
 # paired by building (study_zero_shot.py --reference-policy learned): direct_SET.log, targets_SET_direct; a held-out
-# set (SET ending in _test, session 58) against the default's trials of runs/test.
+# set (SET ending in _test, session 58) against the default's trials of runs/test. REFS="dagger9k_val90" (session 59):
+# against the trials of that folder instead (the session-58 default's validation runs).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 SET=${1:?"give the set, e.g. bash direct.sh nodes512_val90"}
 [ -d $HERE/runs/$SET ] || { echo "runs/$SET: not there; run SETS=$SET study.sh first" >&2; exit 2; }
-case $SET in *_test) REFS="test";; *) REFS="val val2";; esac  # held-out sets: the default's trials of runs/test
+[ -n "$REFS" ] || case $SET in *_test) REFS="test";; *) REFS="val val2";; esac  # held-out sets: runs/test's default
 SPLIT=$(mktemp -d)
 for ref in $REFS; do  # one report per reference folder, as study_zero_shot.py pairs them
   mkdir -p $SPLIT/$ref
