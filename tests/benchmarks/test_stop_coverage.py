@@ -87,6 +87,15 @@ def test_by_coverage_pools_the_buildings_that_reached_each_coverage(tmp_path, ca
     assert code == 2 and "--coverages 85.0" in err
     code, _, err = run_main(BY_COVERAGE, [str(tmp_path / "nothing")], capsys)
     assert code == 2 and "no building_SEED/trials.jsonl" in err
+    alone = tmp_path / "learned_only" / "building_1"  # a learned-only run not joined with EM's trials yet
+    alone.mkdir(parents=True)
+    alone.joinpath("trials.jsonl").write_text(json.dumps(exploration("learned", 12.0, em_errors, 1.0)) + "\n"
+                                              + json.dumps({**exploration("learned", 12.0, em_errors, 1.0),
+                                                            "scene": "c"}) + "\n")
+    (alone.parent / "building_2").mkdir()
+    (alone.parent / "building_2" / "trials.jsonl").write_text((alone / "trials.jsonl").read_text())
+    code, out, _ = run_main(BY_COVERAGE, [str(alone.parent), "--coverages", "0.5"], capsys)
+    assert code == 0 and "no building with both" in json_lines(out)[0]["note"]
 
 
 PHASES = "benchmarks/results/stop_coverage/phases.py"

@@ -33,6 +33,8 @@ def at_coverage(buildings: list[list[dict]], coverage: float, resamples: int) ->
         return row
     entries = check_targets([run for runs in kept for run in runs], targets=ZeroShotTargets(coverage=coverage),
                             resamples=resamples)
+    if not entries:  # no building holds both a learned and an EM trial
+        return row | {"note": "no building with both a learned and an em trial"}
     pooled = entries[-1]
     return row | {key: round(pooled[key], 3) for key in KEYS} | {
         f"{key}_ci95": [round(v, 3) for v in pooled[f"{key}_ci95"]] for key in KEYS}

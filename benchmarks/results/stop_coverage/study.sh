@@ -80,14 +80,14 @@ baselines_test() {
   [ -d $HERE/runs/baselines_test ] || return 0
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/baselines_test')"
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
   case $SET in
     street_garage) street_garage; continue;;
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
-    prior*|nodes*|dagger*|blind*) join_prior $SET;;
+    prior*|nodes*|dagger*|blind*|gate*) join_prior $SET;;
     *) keep /work/runs/stop85_$SET $HERE/runs/$SET;;
   esac
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
