@@ -111,3 +111,20 @@ def test_bad_network_arguments_are_refused_in_one_line(files, run, args, message
     tmp_path, _, _, actor_path = files
     result = run(*args, "--dataset", str(tmp_path / "data"), "--actor", str(actor_path))
     assert result.returncode == 2 and message in result.stderr.strip().splitlines()[-1]
+
+
+def test_the_extended_scratch_arm_alone_reads_an_extended_dataset(tmp_path, run):
+    """An extended dataset (no loop_length column) serves ``--arm scratch --feature-sets extended``; asking for
+    ``loops`` on it is refused in one line naming the column."""
+    from explore_rl.config import load_config
+    from tests.policy_files import TINY_MODEL, actor_file
+
+    revisit_dataset(tmp_path / "data", features="extended")
+    actor_path, _ = actor_file(tmp_path / "tiny", load_config([*TINY_MODEL, "graph.features=extended"]))
+    common = ["--arm", "scratch", "--dataset", str(tmp_path / "data"), "--actor", str(actor_path), "--hidden", "6",
+              "--steps", "1", "--every", "1", "--in-sample", "5", "--out", str(tmp_path / "out")]
+    result = run(*common, "--feature-sets", "extended")
+    assert result.returncode == 0, result.stderr
+    assert json_lines(result.stdout)[-1]["model"]["hidden"] == 6
+    result = run(*common, "--feature-sets", "loops")
+    assert result.returncode == 1 and "loop_length" in result.stderr.strip().splitlines()[-1]

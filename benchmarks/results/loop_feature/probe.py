@@ -9,7 +9,8 @@ trained on), two pairs of actors trained on the same minibatches (``em_choice`` 
   to ``loops`` with a zero weight on the new column (so it starts as the actor).
 
 ``--feature-sets loops`` trains one of the two only (then no pair difference); ``--dropout`` and ``--hidden``
-change the scratch arm's network (session 45's fit probe, benchmarks/results/fit_probe/plan.md).
+change the scratch arm's network (session 45's fit probe, benchmarks/results/fit_probe/plan.md). The scratch arm of
+``--feature-sets extended`` alone also reads an extended dataset (session 59's width probe).
 
 Per actor, every ``--every`` steps: the offline gap closed (EM reward of the greedy pick above the frontiers'
 mean, over EM's best above it, pooled) and the agreement with EM's best, held out (the probe split) and in
@@ -148,7 +149,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
     try:
         dataset = DecisionDataset(args.dataset)
-        dataset.columns_for(feature_names("loops"))
+        for feature_set in args.feature_sets if args.arm == "scratch" else FEATURE_SETS:  # the columns it reads
+            dataset.columns_for(feature_names(feature_set))
     except ValueError as error:
         sys.exit(f"--dataset {error}")
     train_index, probe_index = split(dataset)
