@@ -597,11 +597,13 @@ class LearnedPolicy:
         self.last_actions, self.last_graph, self.last_encoded, self.last_logits = actions, graph, encoded, logits
         self.last_evaluation = None
         self.decisions += 1
+        gate = self.config.em_below_confidence
+        unsure = gate > 0 and top_probability(biased, action_mask) < gate
         if self.config.em_top_k > 0:  # EM decides among the actor's shortlist
             rows = shortlist_rows(biased, action_mask, self.config.em_top_k)
             self.last_evaluation = self.em_planner().evaluate(state, shortlist(actions, graph, encoded, rows))
             self.last_choice = self.last_evaluation.chosen
-        elif top_probability(biased, action_mask) < self.config.em_below_confidence:  # unsure: EM decides
+        elif unsure:  # EM decides over the whole action set
             self.last_evaluation = self.em_planner().evaluate(state, actions)
             self.last_choice = self.last_evaluation.chosen
             self.em_decisions += 1
