@@ -149,10 +149,11 @@ SEVERAL_MACHINES = "several machines"
 
 def decision_times_of(points: Sequence[TrialPoint]) -> str:
     """Where the trials' decision times were measured: ``one machine`` (every trial records
-    the same processor), ``several machines`` (their ratio compares machines, not policies)
-    or ``unrecorded`` (trials written before they recorded it)."""
+    the same processor), ``several machines`` (their ratio compares machines, not policies;
+    also when only some trials record one: those come from code before session 59, whose
+    decision time held the stop check's metrics) or ``unrecorded`` (no trial records it)."""
     cpus = {p.run.get("cpu") for p in points}
-    if None in cpus:
+    if cpus == {None}:
         return "unrecorded"
     return "one machine" if len(cpus) == 1 else SEVERAL_MACHINES
 

@@ -161,7 +161,8 @@ def test_the_markdown_lists_the_trials_to_resolve_each_target():
 
 def test_decision_times_of_several_machines_never_meet_the_speed_target():
     """Trials record their processor: a speedup divides one machine's decision times by another's only as a
-    flagged figure, never a met target; one machine's is a verdict as before, unrecorded ones (old reports) too."""
+    flagged figure, never a met target (nor new trials' times by stored ones that record none); one machine's is a
+    verdict as before, and so are reports none of whose trials record it (old reports read again)."""
     def timed(policy, trial, ms, cpu):
         return {**run(policy, trial, [50.0, 100.0], [0.4, 0.9], [0.1, 0.1], ms=ms), "cpu": cpu}
 
@@ -175,4 +176,8 @@ def test_decision_times_of_several_machines_never_meet_the_speed_target():
     assert entry["decision_times"] == "one machine" and entry["speed_met"]
     (entry,) = zero_shot.check_targets([{k: v for k, v in t.items() if k != "cpu"} for t in mixed], resamples=200)
     assert entry["decision_times"] == "unrecorded" and entry["speed_met"]
+    new_against_stored = [{**t, "cpu": "A"} if t["policy"] == "learned" else {k: v for k, v in t.items() if k != "cpu"}
+                          for t in mixed]  # new trials paired with stored ones that record no processor
+    (entry,) = zero_shot.check_targets(new_against_stored, resamples=200)
+    assert entry["decision_times"] == "several machines" and not entry["speed_met"]
     assert comparison.cpu_model()  # this machine's name, recorded in every trial
