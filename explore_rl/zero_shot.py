@@ -135,15 +135,6 @@ def _trials_needed(entry: dict, targets: ZeroShotTargets, trials: int) -> dict:
                                    upper=False)}}
 
 
-def _verdicts(entry: dict, targets: ZeroShotTargets) -> dict:
-    """A target is met only when its whole 95 % interval is on the right side (never
-    without an interval); the speed target never on decision times of several machines."""
-    return {"travel_met": bool(entry["travel_ratio_ci95"][1] <= targets.max_travel_ratio),
-            "error_met": bool(entry["error_ratio_ci95"][1] <= targets.max_error_ratio),
-            "speed_met": bool(entry["speedup_ci95"][0] >= targets.min_speedup)
-            and entry["decision_times"] != SEVERAL_MACHINES}
-
-
 SEVERAL_MACHINES = "several machines"
 
 
@@ -156,6 +147,15 @@ def decision_times_of(points: Sequence[TrialPoint]) -> str:
     if cpus == {None}:
         return "unrecorded"
     return "one machine" if len(cpus) == 1 else SEVERAL_MACHINES
+
+
+def _verdicts(entry: dict, targets: ZeroShotTargets) -> dict:
+    """A target is met only when its whole 95 % interval is on the right side (never
+    without an interval); the speed target never on decision times of several machines."""
+    return {"travel_met": bool(entry["travel_ratio_ci95"][1] <= targets.max_travel_ratio),
+            "error_met": bool(entry["error_ratio_ci95"][1] <= targets.max_error_ratio),
+            "speed_met": bool(entry["speedup_ci95"][0] >= targets.min_speedup)
+            and entry["decision_times"] != SEVERAL_MACHINES}
 
 
 KEYS = ("travel_ratio", "error_ratio", "equal_travel_error_ratio", "closures_ratio", "speedup")
