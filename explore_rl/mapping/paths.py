@@ -74,8 +74,43 @@ def grid_graph(
 
     Edge weight = step length x mean of the two cell costs. Without corner cutting a
     diagonal step also needs both cells beside it traversable. Both directions are
-    stored; the CSR arrays are assembled directly (no COO sort).
+    stored; the CSR arrays are assembled directly (no COO sort), from the traversable
+    cells alone (the other rows are empty): the same matrix as :func:`grid_graph_reference`,
+    which works on every cell, bit for bit.
     """
+    ny, nx = traversable.shape
+    width = nx + 2  # the padded grid's row: a neighbour's padded flat index never wraps
+    padded = np.pad(traversable, 1, constant_values=False).reshape(-1)
+    padded_cost = np.pad(cost, 1, constant_values=np.inf).reshape(-1)
+    cells = np.flatnonzero(traversable)  # ascending: the CSR rows in order
+    rows, cols = np.divmod(cells, nx)
+    centre = (rows + 1) * width + cols + 1  # each traversable cell in the padded grid
+    own_cost = padded_cost[centre]
+    valid = np.empty((len(cells), len(_NEIGHBOURS)), dtype=bool)
+    weights = np.empty((len(cells), len(_NEIGHBOURS)))
+    for k, (dy, dx) in enumerate(_NEIGHBOURS):
+        neighbour = centre + dy * width + dx
+        ok = padded[neighbour]
+        diagonal = dy != 0 and dx != 0
+        if diagonal and not allow_corner_cutting:
+            ok &= padded[centre + dy * width] & padded[centre + dx]
+        step = resolution * (np.sqrt(2.0) if diagonal else 1.0)
+        valid[:, k] = ok
+        weights[:, k] = step * 0.5 * (own_cost + padded_cost[neighbour])
+    n = ny * nx
+    offsets = np.array([dy * nx + dx for dy, dx in _NEIGHBOURS])
+    counts = np.zeros(n, dtype=np.int64)
+    counts[cells] = valid.sum(axis=1)
+    indptr = np.concatenate([[0], np.cumsum(counts)])
+    targets = cells[:, None] + offsets[None, :]
+    return sparse.csr_matrix((weights[valid], targets[valid], indptr), shape=(n, n))
+
+
+def grid_graph_reference(
+    traversable: np.ndarray, cost: np.ndarray, resolution: float, allow_corner_cutting: bool = False
+) -> sparse.csr_matrix:
+    """:func:`grid_graph` as first written, over every cell of the grid (the reference it must
+    equal; ``PathPlanner(..., reference=True)`` builds with it)."""
     ny, nx = traversable.shape
     padded = np.pad(traversable, 1, constant_values=False)
     padded_cost = np.pad(cost, 1, constant_values=np.inf)
@@ -173,7 +208,7 @@ class PathPlanner:
         self.low, self.high = (np.zeros(2, dtype=int), np.array(grid.shape)) if reference else \
             traversable_window(self.traversable)
         window = tuple(slice(lo, hi) for lo, hi in zip(self.low, self.high))
-        self.graph = grid_graph(
+        self.graph = (grid_graph_reference if reference else grid_graph)(
             self.traversable[window], self.cost[window], grid.resolution, self.config.allow_corner_cutting
         )
 

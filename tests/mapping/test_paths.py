@@ -11,6 +11,8 @@ from explore_rl.mapping.frontiers import find_frontiers
 from explore_rl.mapping.occupancy import OccupancyGrid, collapse_scan
 from explore_rl.mapping.paths import (
     PathPlanner,
+    grid_graph,
+    grid_graph_reference,
     path_length,
     simplify_path,
     traversability,
@@ -256,6 +258,22 @@ def test_the_windowed_graph_gives_the_whole_grids_distances_and_paths(seed, corn
     assert_same_fields(windowed, whole)
     for goal in np.argwhere(np.isfinite(whole.distances))[::7]:
         np.testing.assert_array_equal(windowed.path_to(goal), whole.path_to(goal))
+
+
+@pytest.mark.parametrize("corner_cutting", [False, True])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_graph_of_the_traversable_cells_is_the_reference_matrix(seed, corner_cutting):
+    """:func:`grid_graph` (built from the traversable cells alone) is the matrix of
+    :func:`grid_graph_reference` (every cell): the same CSR arrays, element for element,
+    including traversable cells on the grid's border."""
+    _, traversable, cost, _ = random_map(seed)
+    traversable[0, :] = traversable[-1, :] = True  # border rows whose neighbours fall outside
+    cost = np.where(traversable, np.where(np.isfinite(cost), cost, 1.5), np.inf)
+    fast = grid_graph(traversable, cost, RES, corner_cutting)
+    reference = grid_graph_reference(traversable, cost, RES, corner_cutting)
+    assert fast.nnz > 100
+    for name in ("indptr", "indices", "data"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(reference, name))
 
 
 def test_the_windowed_graph_equals_the_whole_grids_on_real_explorations():
