@@ -14,11 +14,6 @@ Office, ``slam=model``, one process, the same seed, starts and random valid acti
   decision the time in observe (escape, frontiers, Dijkstra), context (action set, pose
   marginals, virtual map: what the graph features and EM share), graph (graph +
   padding), reward (EM on every frontier node) and drive (path with SLAM);
-* a third env in the same lockstep with every reference the project keeps as a config knob
-  (``ALL_REFERENCES``: EM's reference backend and the maps rebuilt after each loop closure,
-  ``mapping.updates=rebuild``, the drive's reference of ``bench_drive.py``): the env as it was
-  before the fast paths, so ``speedup_all_references`` is what the fast parts give together
-  (the rebuilt maps equal the corrected ones, so the three envs see the same states);
 * the env following EM's choice (``("expert", "em_action")``) and the plain runner with ``policy=em``
   (the baseline): both make the same decisions, so the difference is the environment's
   own overhead (fast backend).
@@ -57,8 +52,6 @@ from explore_rl.runner import Explorer  # noqa: E402
 
 STAGES = ("observe", "context", "graph", "reward", "drive")
 BACKENDS = ("fast", "reference")
-# Every slow reference kept as a config knob, for the env as it was before the fast paths.
-ALL_REFERENCES = ("planning.em.backend=reference", "mapping.updates=rebuild")
 PROFILE_DECISIONS = 40
 TOP_FUNCTIONS = 15
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -189,17 +182,13 @@ def benchmark(args: argparse.Namespace) -> None:
     episodes, max_decisions = (1, 2) if args.smoke else (1, 12) if args.quick else (3, 300)
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
                           f"explore.max_decisions={max_decisions}", *args.set])
-    configs = {backend: with_backend(config, backend) for backend in BACKENDS}
-    configs["all_references"] = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
-                                             f"explore.max_decisions={max_decisions}", *args.set, *ALL_REFERENCES])
-    runs = run_lockstep(configs, episodes, max_decisions)
-    fast, reference, all_references = runs["fast"], runs["reference"], runs["all_references"]
+    runs = run_lockstep({backend: with_backend(config, backend) for backend in BACKENDS}, episodes, max_decisions)
+    fast, reference = runs["fast"], runs["reference"]
     env_em = run_env(config, 1, max_decisions, follow_em=True)
     runner_em = run_runner_em(config, max_decisions)
-    for name, r in (("env fast", fast), ("env reference", reference), ("env all refs", all_references),
-                    ("env em", env_em), ("runner em", runner_em)):
+    for name, r in (("env fast", fast), ("env reference", reference), ("env em", env_em), ("runner em", runner_em)):
         print(f"{name:14s} {r['decisions']:4d} decisions {r['wall_s']:7.1f} s  {r['decisions_per_s']:.3f}/s")
-    for name, r in (("fast", fast), ("reference", reference), ("all references", all_references)):
+    for name, r in (("fast", fast), ("reference", reference)):
         print(f"per decision ({name}):", {k: v for k, v in r.items() if k.startswith("ms_")})
     same = agreement(fast, reference)
     print("agreement:", same)
@@ -207,11 +196,6 @@ def benchmark(args: argparse.Namespace) -> None:
           "decisions_per_s": fast["decisions_per_s"],
           "decisions_per_s_reference": reference["decisions_per_s"],
           "speedup": round(fast["decisions_per_s"] / reference["decisions_per_s"], 3),
-          "decisions_per_s_all_references": all_references["decisions_per_s"],
-          "speedup_all_references": round(fast["decisions_per_s"] / all_references["decisions_per_s"], 3),
-          "same_em_choice_all_references": agreement(fast, all_references)["same_em_choice"],
-          "same_states_all_references": all((r["explored"], r["travel_m"]) == (fast["explored"], fast["travel_m"])
-                                            for r in (reference, all_references)),
           **same,
           "reward_ms": fast["ms_reward"], "reward_ms_reference": reference["ms_reward"],
           "reward_speedup": round(reference["ms_reward"] / max(fast["ms_reward"], 1e-9), 2),
@@ -225,9 +209,7 @@ def benchmark(args: argparse.Namespace) -> None:
           "env_em_over_runner_em": round(env_em["decisions_per_s"] / runner_em["decisions_per_s"], 3),
           "same_decisions": env_em["decisions"] == runner_em["decisions"]
           and env_em["travel_m"] == runner_em["travel_m"],
-          "ms_drive_all_references": all_references["ms_drive"],
-          "env_fast": summary(fast), "env_reference": summary(reference),
-          "env_all_references": summary(all_references), "env_em": summary(env_em),
+          "env_fast": summary(fast), "env_reference": summary(reference), "env_em": summary(env_em),
           "runner_em": runner_em})
 
 

@@ -25,8 +25,7 @@ SCRIPTS = [
     ("benchmarks/bench_env.py", [], ["decisions_per_s", "decisions_per_s_reference", "speedup", "same_em_choice",
                                      "reward_ms", "reward_ms_reference", "ms_context", "ms_graph", "ms_reward",
                                      "ms_drive", "ms_reward_reference", "ms_drive_reference", "max_nodes_seen",
-                                     "speedup_bound_em_free", "speedup_all_references",
-                                     "same_em_choice_all_references", "same_states_all_references",
+                                     "speedup_bound_em_free",
                                      "decisions_per_s_runner_em"]),
     ("benchmarks/bench_env.py", ["--profile"], ["fast", "reference"]),
     ("benchmarks/bench_explore.py", [], ["ms_per_decision", "ms_decide", "ms_drive", "keyframes_per_s",
@@ -72,11 +71,6 @@ OUTPUTS = {
     "scripts/calibrate_scan_matching.py": ["scan_matching.yaml"],
 }
 
-# keys of the JSON last line that must be true in the smoke run (checks a script makes of itself)
-TRUE_KEYS = {
-    ("benchmarks/bench_env.py", ()): ["same_states_all_references"],  # the lockstep envs saw the same episodes
-}
-
 
 @pytest.mark.parametrize(("script", "args", "keys"), SCRIPTS, ids=[Path(s).stem for s, _, _ in SCRIPTS])
 def test_script_smoke(script: str, args: list[str], keys: list[str], tmp_path: Path) -> None:
@@ -84,8 +78,6 @@ def test_script_smoke(script: str, args: list[str], keys: list[str], tmp_path: P
     assert result.get("smoke") is True, f"{script} did not report a smoke run: {sorted(result)}"
     missing = [k for k in keys if k not in result]
     assert not missing, f"{script}: JSON last line lacks {missing} (has {sorted(result)})"
-    false = [k for k in TRUE_KEYS.get((script, tuple(args)), []) if result[k] is not True]
-    assert not false, f"{script} --smoke: {false} not true"
     for name in OUTPUTS.get(script, []):
         assert (tmp_path / name).is_file(), f"{script} --smoke did not write {name} into the tmp dir"
 
