@@ -5,7 +5,11 @@ Splits the time per decision into decide (frontiers, Dijkstra, paths, policy) an
 and seed as the in-run baseline. The run's metrics (map error, ATE, explored, ...: the
 runner logs them after every decision) are timed on its final session, at once
 (``ms_metrics``) and keyframe by keyframe as first written (``ms_metrics_reference``),
-with the two map errors' relative difference.
+with the two map errors' relative difference. The shortest paths of the final map are timed
+the same way: the planner of the runner (grid graph of the traversable cells over their
+window, then one Dijkstra; ``ms_paths``) and the whole grid's as first written
+(``PathPlanner(..., reference=True)``; ``ms_paths_reference``), whose distance fields must be
+equal (``same_distance_field``).
 
     python benchmarks/bench_explore.py [--quick | --smoke]
 """
@@ -22,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import emit, machine, parse_args, time_call  # noqa: E402
 
 from explore_rl.config import load_config  # noqa: E402
+from explore_rl.mapping.paths import PathPlanner, traversability  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
 
 
@@ -34,6 +39,23 @@ def metrics_cost(explorer: Explorer, repeats: int) -> dict:
             "ms_metrics_reference": round(1e3 * time_call(lambda: session.metrics(reference=True), repeats), 2),
             "map_error_rel_diff": abs(fast.map_error_m - reference.map_error_m) / max(reference.map_error_m, 1e-300),
             "metrics_keyframes": len(session.keyframes)}
+
+
+def paths_cost(explorer: Explorer, repeats: int) -> dict:
+    """Milliseconds of the final map's shortest paths from the robot (graph + Dijkstra), by the
+    runner's planner and by the whole grid's reference, and whether their distances agree."""
+    occupancy, grid, config = explorer.session.occupancy, explorer.scene.grid, explorer.config
+    traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, grid, config.robot.radius,
+                                       config.mapping.paths)
+    start = explorer.robot.belief_pose[:2]
+
+    def paths(reference: bool):
+        return PathPlanner(grid, traversable, cost, config.mapping.paths, reference=reference).from_start(start)
+
+    same = np.array_equal(paths(False).distances, paths(True).distances)
+    return {"ms_paths": round(1e3 * time_call(lambda: paths(False), repeats), 2),
+            "ms_paths_reference": round(1e3 * time_call(lambda: paths(True), repeats), 2),
+            "same_distance_field": bool(same), "traversable_cells": int(traversable.sum())}
 
 
 def explore(policy: str, max_decisions: int, extra: list[str], metrics_repeats: int = 0) -> dict:
@@ -60,6 +82,7 @@ def explore(policy: str, max_decisions: int, extra: list[str], metrics_repeats: 
         "map_error_m": round(records[-1].map_error_m, 4) if records else 0.0,
         "wall_s": round(wall, 1),
         **(metrics_cost(explorer, metrics_repeats) if metrics_repeats else {}),
+        **(paths_cost(explorer, metrics_repeats) if metrics_repeats else {}),
     }
 
 
@@ -75,8 +98,11 @@ def main() -> None:
     print("per keyframe:", nearest["ms_per_keyframe_by_stage"])
     print(f"metrics at {nearest['metrics_keyframes']} keyframes: {nearest['ms_metrics']:.2f} ms "
           f"(reference {nearest['ms_metrics_reference']:.2f} ms), map errors {nearest['map_error_rel_diff']:.1e} apart")
+    print(f"paths of the final map ({nearest['traversable_cells']} traversable cells): {nearest['ms_paths']:.2f} ms "
+          f"(reference {nearest['ms_paths_reference']:.2f} ms), same distances: {nearest['same_distance_field']}")
     emit({"benchmark": "explore", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
           **nearest, "metrics_speedup": round(nearest["ms_metrics_reference"] / nearest["ms_metrics"], 2),
+          "paths_speedup": round(nearest["ms_paths_reference"] / nearest["ms_paths"], 2),
           "baseline_random": random})
 
 
