@@ -11,6 +11,9 @@
 #   phases_SET.log                               how each policy explores per coverage band (phases.py)
 # and, once val2 has buildings, the 90-building validation pool 1010-1099 (runs/val and runs/val2): study_val90.log,
 # by_coverage_val90.log, phases_val90.log (plan.md, session 52 step C).
+# Session 61's held-out pool 2020-2219: runs/test2 (EM on 2120-2219, /work/runs/stop85_test2), a variant's trials there
+# (SET_test2, joined with runs/test2's EM like the _test sets) and SETS="X_test200": runs/X_test and runs/X_test2 pooled
+# against EM (study_X_test200.log, by_coverage_X_test200.log).
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -80,9 +83,17 @@ baselines_test() {
   [ -d $HERE/runs/baselines_test ] || return 0
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/baselines_test')"
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
-for SET in ${SETS:-val val2 test $PRIORS street_garage}; do
+# held_out200 X: the variant X's trials on both halves of the 200-building held-out pool, pooled against EM
+held_out200() {
+  [ -d $HERE/runs/${1}_test ] && [ -d $HERE/runs/${1}_test2 ] || { echo "runs/${1}_test or runs/${1}_test2: not there; run SETS=\"${1}_test ${1}_test2\" study.sh first" >&2; return 0; }
+  $STUDY $HERE/runs/${1}_test $HERE/runs/${1}_test2 --pool ${1}_test200 --out $HERE/targets_${1}_test200 \
+    > $HERE/study_${1}_test200.log
+  $PY $HERE/by_coverage.py $HERE/runs/${1}_test $HERE/runs/${1}_test2 --coverages $COVERAGES > $HERE/by_coverage_${1}_test200.log
+}
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+for SET in ${SETS:-val val2 test test2 $PRIORS street_garage}; do
   case $SET in
+    *_test200) held_out200 ${SET%_test200}; continue;;
     street_garage) street_garage; continue;;
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
