@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# plan.md, session 61: the 200-building held-out pool (2020-2219) for the shipped actor with policy.loop_bias=0.04,
+# one stage at a time (run.sh's config; each stage resumable: finished buildings are skipped):
+#   prior_test   the prior on 2020-2119 (/work/runs/stop85_prior_dagger0.04_test; runs/test has EM's trials)
+#   em_test2     EM on 2120-2219 (/work/runs/stop85_test2)
+#   prior_test2  the prior on 2120-2219 (/work/runs/stop85_prior_dagger0.04_test2)
+#   bash heldout200_s61.sh prior_test em_test2 prior_test2
+# then SETS="test2 prior_dagger0.04_test prior_dagger0.04_test2 prior_dagger0.04_test200" bash study.sh
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+RUN="bash $HERE/../keyframes_45deg/run.sh"
+for stage in "$@"; do
+  echo "$stage start $(date -u +%H:%M:%S)"
+  case $stage in
+    prior_test)
+      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2020 LAST=2119 \
+        OUT=/work/runs/stop85_prior_dagger0.04_test EXTRA="policy.loop_bias=0.04" $RUN;;
+    em_test2)
+      POLICIES=[em] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 OUT=/work/runs/stop85_test2 $RUN;;
+    prior_test2)
+      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
+        OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04" $RUN;;
+    *) echo "unknown stage $stage (prior_test, em_test2, prior_test2)" >&2; exit 2;;
+  esac
+  echo "$stage end $(date -u +%H:%M:%S)"
+done
