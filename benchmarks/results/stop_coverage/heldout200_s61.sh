@@ -9,6 +9,9 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUN="bash $HERE/../keyframes_45deg/run.sh"
+for stage in "$@"; do  # every stage named right before any runs
+  case $stage in prior_test|em_test2|prior_test2) ;; *) echo "unknown stage $stage (prior_test, em_test2, prior_test2)" >&2; exit 2;; esac
+done
 for stage in "$@"; do
   echo "$stage start $(date -u +%H:%M:%S)"
   case $stage in
@@ -20,7 +23,6 @@ for stage in "$@"; do
     prior_test2)
       POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
         OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04" $RUN;;
-    *) echo "unknown stage $stage (prior_test, em_test2, prior_test2)" >&2; exit 2;;
   esac
   echo "$stage end $(date -u +%H:%M:%S)"
 done
