@@ -94,6 +94,7 @@ PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_pri
 for SET in ${SETS:-val val2 test test2 $PRIORS street_garage}; do
   case $SET in
     *_test200) held_out200 ${SET%_test200}; continue;;
+    test2) keep /work/runs/stop85_test2 $HERE/runs/test2; continue;;  # EM's trials alone: the variants' reference
     street_garage) street_garage; continue;;
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
