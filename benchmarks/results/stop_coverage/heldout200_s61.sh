@@ -4,13 +4,15 @@
 #   prior_test   the prior on 2020-2119 (/work/runs/stop85_prior_dagger0.04_test; runs/test has EM's trials)
 #   em_test2     EM on 2120-2219 (/work/runs/stop85_test2)
 #   prior_test2  the prior on 2120-2219 (/work/runs/stop85_prior_dagger0.04_test2)
+#   default_test2  session 62: the shipped default alone (runs/dagger9k_test's actor, no prior) on 2120-2219
+#                  (/work/runs/stop85_dagger9k_test2; then SETS="dagger9k_test2 dagger9k_test200" study.sh)
 #   bash heldout200_s61.sh prior_test em_test2 prior_test2
 # then SETS="test2 prior_dagger0.04_test prior_dagger0.04_test2 prior_dagger0.04_test200" bash study.sh
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUN="bash $HERE/../keyframes_45deg/run.sh"
 for stage in "$@"; do  # every stage named right before any runs
-  case $stage in prior_test|em_test2|prior_test2) ;; *) echo "unknown stage $stage (prior_test, em_test2, prior_test2)" >&2; exit 2;; esac
+  case $stage in prior_test|em_test2|prior_test2|default_test2) ;; *) echo "unknown stage $stage (prior_test, em_test2, prior_test2, default_test2)" >&2; exit 2;; esac
 done
 for stage in "$@"; do
   echo "$stage start $(date -u +%H:%M:%S)"
@@ -23,6 +25,9 @@ for stage in "$@"; do
     prior_test2)
       POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
         OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04" $RUN;;
+    default_test2)
+      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
+        OUT=/work/runs/stop85_dagger9k_test2 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN;;
   esac
   echo "$stage end $(date -u +%H:%M:%S)"
 done
