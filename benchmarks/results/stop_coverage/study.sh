@@ -90,7 +90,7 @@ held_out200() {
     > $HERE/study_${1}_test200.log
   $PY $HERE/by_coverage.py $HERE/runs/${1}_test $HERE/runs/${1}_test2 --coverages $COVERAGES > $HERE/by_coverage_${1}_test200.log
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test test2 $PRIORS street_garage}; do
   case $SET in
     *_test200) held_out200 ${SET%_test200}; continue;;
