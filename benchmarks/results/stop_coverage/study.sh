@@ -14,6 +14,8 @@
 # Session 61's held-out pool 2020-2219: runs/test2 (EM on 2120-2219, /work/runs/stop85_test2), a variant's trials there
 # (SET_test2, joined with runs/test2's EM like the _test sets) and SETS="X_test200": runs/X_test and runs/X_test2 pooled
 # against EM (study_X_test200.log, by_coverage_X_test200.log).
+# Session 63's fresh held-out pool 2220-2419: runs/test3 (EM, /work/runs/stop85_test3) and a variant's X_test3 (joined
+# with runs/test3's EM like the _test2 sets; one set of 200 buildings, no halves).
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -90,11 +92,11 @@ held_out200() {
     > $HERE/study_${1}_test200.log
   $PY $HERE/by_coverage.py $HERE/runs/${1}_test $HERE/runs/${1}_test2 --coverages $COVERAGES > $HERE/by_coverage_${1}_test200.log
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
-for SET in ${SETS:-val val2 test test2 $PRIORS street_garage}; do
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
   case $SET in
     *_test200) held_out200 ${SET%_test200}; continue;;
-    test2) keep /work/runs/stop85_test2 $HERE/runs/test2; continue;;  # EM's trials alone: the variants' reference
+    test2|test3) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
     street_garage) street_garage; continue;;
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
