@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# plan.md, session 63: the fresh held-out pool 2220-2419 (200 buildings, run.sh's config), one stage at a time
+# (each resumable: finished buildings are skipped):
+#   em_test3       EM's trials (/work/runs/stop85_test3; policy-independent groundwork)
+#   default_test3  the shipped default's replication (actors/s56_all9k.pt, no prior; /work/runs/stop85_dagger9k_test3),
+#                  after em_test3 is complete
+#   bash fresh_pool_s63.sh em_test3 default_test3
+# then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+RUN="bash $HERE/../keyframes_45deg/run.sh"
+POOL="SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2220 LAST=2419"
+for stage in "$@"; do  # every stage named right before any runs
+  case $stage in em_test3|default_test3) ;; *) echo "unknown stage $stage (em_test3, default_test3)" >&2; exit 2;; esac
+done
+for stage in "$@"; do
+  echo "$stage start $(date -u +%H:%M:%S)"
+  case $stage in
+    em_test3) env $POOL POLICIES=[em] OUT=/work/runs/stop85_test3 $RUN;;
+    default_test3)
+      env $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 \
+        EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN;;
+  esac
+  echo "$stage end $(date -u +%H:%M:%S)"
+done
