@@ -15,7 +15,8 @@
 # (SET_test2, joined with runs/test2's EM like the _test sets) and SETS="X_test200": runs/X_test and runs/X_test2 pooled
 # against EM (study_X_test200.log, by_coverage_X_test200.log).
 # Session 63's fresh held-out pool 2220-2419: runs/test3 (EM, /work/runs/stop85_test3) and a variant's X_test3 (joined
-# with runs/test3's EM like the _test2 sets; one set of 200 buildings, no halves).
+# with runs/test3's EM like the _test2 sets; one set of 200 buildings, no halves); SETS="X_test400": runs/X_test,
+# X_test2 and X_test3 pooled against EM (2020-2419; descriptive, study_X_test400.log, by_coverage_X_test400.log).
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -85,17 +86,23 @@ baselines_test() {
   [ -d $HERE/runs/baselines_test ] || return 0
   $PY -c "from explore_rl.comparison import combine; combine('$HERE/runs/baselines_test')"
 }
-# held_out200 X: the variant X's trials on both halves of the 200-building held-out pool, pooled against EM
-held_out200() {
-  [ -d $HERE/runs/${1}_test ] && [ -d $HERE/runs/${1}_test2 ] || { echo "runs/${1}_test or runs/${1}_test2: not there; run SETS=\"${1}_test ${1}_test2\" study.sh first" >&2; return 0; }
-  $STUDY $HERE/runs/${1}_test $HERE/runs/${1}_test2 --pool ${1}_test200 --out $HERE/targets_${1}_test200 \
-    > $HERE/study_${1}_test200.log
-  $PY $HERE/by_coverage.py $HERE/runs/${1}_test $HERE/runs/${1}_test2 --coverages $COVERAGES > $HERE/by_coverage_${1}_test200.log
+# held_out_pooled X NAME SUFFIXES: the variant X's trials on several held-out pools, pooled against EM
+# (study_X_NAME.log, by_coverage_X_NAME.log): X_test200 = runs/X_test + runs/X_test2 (2020-2219, session 61's judged
+# pool); X_test400 = those and runs/X_test3 (2020-2419; descriptive only, plan.md's session 63 addendum)
+held_out_pooled() {
+  local dirs=""
+  for suffix in $3; do
+    [ -d $HERE/runs/${1}_$suffix ] || { echo "runs/${1}_$suffix: not there; run SETS=\"${1}_$suffix\" study.sh first" >&2; return 0; }
+    dirs="$dirs $HERE/runs/${1}_$suffix"
+  done
+  $STUDY $dirs --pool ${1}_$2 --out $HERE/targets_${1}_$2 > $HERE/study_${1}_$2.log
+  $PY $HERE/by_coverage.py $dirs --coverages $COVERAGES > $HERE/by_coverage_${1}_$2.log
 }
 PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
   case $SET in
-    *_test200) held_out200 ${SET%_test200}; continue;;
+    *_test200) held_out_pooled ${SET%_test200} test200 "test test2"; continue;;
+    *_test400) held_out_pooled ${SET%_test400} test400 "test test2 test3"; continue;;
     test2|test3) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
     street_garage) street_garage; continue;;
     street_garage_baselines) continue;;
