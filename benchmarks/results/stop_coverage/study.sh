@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # plan.md: keep run.sh's finished buildings in runs/SET (val, val2, test: /work/runs/stop85_SET;
-# prior[_B]_val, prior_B_test, prior_X_val90, session 55's nodesN_val90 / nodesN_test and daggerN_val/_val90/_test:
-# a learned-only variant's trials of /work/runs/stop85_SET (a prior, another graph.max_nodes or a fine-tuned actor),
+# prior[_B]_val, prior_B_test, prior_X_val90, session 55's nodesN_val90 / nodesN_test, daggerN_val/_val90/_test and
+# session 65's icpN_val90: a learned-only variant's trials of /work/runs/stop85_SET (a prior, another graph.max_nodes
+# or a fine-tuned actor),
 # each building joined with EM's trial of runs/val, val2 or test; SETS="test": only those sets, the others' logs kept), then
 # study_zero_shot.py (the learned trials against EM's, paired by building):
 #   study_SET.log / targets_SET                  every finished building, compared at the common coverage
@@ -98,7 +99,7 @@ held_out_pooled() {
   $STUDY $dirs --pool ${1}_$2 --out $HERE/targets_${1}_$2 > $HERE/study_${1}_$2.log
   $PY $HERE/by_coverage.py $dirs --coverages $COVERAGES > $HERE/by_coverage_${1}_$2.log
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_blind*_val90 stop85_gate*_val stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_blind*_val90 stop85_gate*_val stop85_icp*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
   case $SET in
     *_test200) held_out_pooled ${SET%_test200} test200 "test test2"; continue;;
@@ -108,7 +109,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
-    prior*|nodes*|dagger*|blind*|gate*) join_prior $SET;;
+    prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
     *) keep /work/runs/stop85_$SET $HERE/runs/$SET;;
   esac
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
