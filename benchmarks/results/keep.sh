@@ -38,3 +38,18 @@ self_vs() {
       --pool ${policy}_$4 --out $1/targets_${policy}_$4 > $1/${policy}_$4.log
   done
 }
+
+# run_stages "KNOWN" STAGE...: a plan's stages in the order given, each a function stage_NAME of the calling script;
+# every name is checked against KNOWN before any stage runs (a typo costs nothing), and each stage's start and end
+# times (UTC) go to stdout
+run_stages() {
+  local known=$1 stage; shift
+  for stage in "$@"; do
+    case " $known " in *" $stage "*) ;; *) echo "unknown stage $stage (${known// /, })" >&2; exit 2;; esac
+  done
+  for stage in "$@"; do
+    echo "$stage start $(date -u +%H:%M:%S)"
+    stage_$stage
+    echo "$stage end $(date -u +%H:%M:%S)"
+  done
+}

@@ -10,16 +10,9 @@ set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUN="bash $HERE/../keyframes_45deg/run.sh"
 POOL="SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2220 LAST=2419"
-for stage in "$@"; do  # every stage named right before any runs
-  case $stage in em_test3|default_test3) ;; *) echo "unknown stage $stage (em_test3, default_test3)" >&2; exit 2;; esac
-done
-for stage in "$@"; do
-  echo "$stage start $(date -u +%H:%M:%S)"
-  case $stage in
-    em_test3) env $POOL POLICIES=[em] OUT=/work/runs/stop85_test3 $RUN;;
-    default_test3)
-      env $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 \
-        EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN;;
-  esac
-  echo "$stage end $(date -u +%H:%M:%S)"
-done
+source $HERE/../keep.sh
+stage_em_test3() { env $POOL POLICIES=[em] OUT=/work/runs/stop85_test3 $RUN; }
+stage_default_test3() {
+  env $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN
+}
+run_stages "em_test3 default_test3" "$@"

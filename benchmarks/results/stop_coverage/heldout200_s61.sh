@@ -11,23 +11,20 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUN="bash $HERE/../keyframes_45deg/run.sh"
-for stage in "$@"; do  # every stage named right before any runs
-  case $stage in prior_test|em_test2|prior_test2|default_test2) ;; *) echo "unknown stage $stage (prior_test, em_test2, prior_test2, default_test2)" >&2; exit 2;; esac
-done
-for stage in "$@"; do
-  echo "$stage start $(date -u +%H:%M:%S)"
-  case $stage in
-    prior_test)
-      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2020 LAST=2119 \
-        OUT=/work/runs/stop85_prior_dagger0.04_test EXTRA="policy.loop_bias=0.04" $RUN;;
-    em_test2)
-      POLICIES=[em] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 OUT=/work/runs/stop85_test2 $RUN;;
-    prior_test2)
-      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
-        OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04" $RUN;;
-    default_test2)
-      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
-        OUT=/work/runs/stop85_dagger9k_test2 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN;;
-  esac
-  echo "$stage end $(date -u +%H:%M:%S)"
-done
+source $HERE/../keep.sh
+stage_prior_test() {
+  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2020 LAST=2119 \
+    OUT=/work/runs/stop85_prior_dagger0.04_test EXTRA="policy.loop_bias=0.04" $RUN
+}
+stage_em_test2() {
+  POLICIES=[em] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 OUT=/work/runs/stop85_test2 $RUN
+}
+stage_prior_test2() {
+  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
+    OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04" $RUN
+}
+stage_default_test2() {
+  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
+    OUT=/work/runs/stop85_dagger9k_test2 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN
+}
+run_stages "prior_test em_test2 prior_test2 default_test2" "$@"

@@ -16,25 +16,22 @@ cd $HERE/../../..  # the repository
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 PY="nice -n 5 .venv/bin/python"
 DATA=${DATA:-/work/data/s65_icp}
-for stage in "$@"; do
-  case $stage in collect|train|screen|val) ;; *) echo "unknown stage $stage (collect, train, screen, val)" >&2; exit 2;; esac
-done
-for stage in "$@"; do
-  echo "$stage start $(date -u +%H:%M:%S)"
-  case $stage in
-    collect)
-      $PY benchmarks/collect_decisions.py --out $DATA --scene building --layouts 0 1000 --tasks 400 --max-decisions 200 \
-        --workers 2 --actor $HERE/actors/s56_all9k.pt --minutes 55 \
-        --set slam=icp explore.travel_budget=600 > $HERE/collect_s65_icp.log 2>&1;;
-    train)
-      $PY $HERE/late_probe.py $DATA --arm all --actor $HERE/actors/s56_all9k.pt --steps 3000 \
-        --out $HERE/actors/s65_icp.pt > $HERE/late_probe_s65_icp.log;;
-    screen)
-      $PY $HERE/one_step.py $DATA --held-out --actor $HERE/actors/s65_icp.pt --versus $HERE/actors/s56_all9k.pt \
-        > $HERE/one_step_s65_icp_vs_all9k.log;;
-    val)
-      POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=1010 LAST=1099 OUT=/work/runs/stop85_icp65_val90 \
-        EXTRA="policy.checkpoint=$HERE/actors/s65_icp.pt" bash $HERE/../keyframes_45deg/run.sh;;
-  esac
-  echo "$stage end $(date -u +%H:%M:%S)"
-done
+source $HERE/../keep.sh
+stage_collect() {
+  $PY benchmarks/collect_decisions.py --out $DATA --scene building --layouts 0 1000 --tasks 400 --max-decisions 200 \
+    --workers 2 --actor $HERE/actors/s56_all9k.pt --minutes 55 \
+    --set slam=icp explore.travel_budget=600 > $HERE/collect_s65_icp.log 2>&1
+}
+stage_train() {
+  $PY $HERE/late_probe.py $DATA --arm all --actor $HERE/actors/s56_all9k.pt --steps 3000 \
+    --out $HERE/actors/s65_icp.pt > $HERE/late_probe_s65_icp.log
+}
+stage_screen() {  # descriptive: the new actor against s56_all9k on the held-out icp decisions, paired
+  $PY $HERE/one_step.py $DATA --held-out --actor $HERE/actors/s65_icp.pt --versus $HERE/actors/s56_all9k.pt \
+    > $HERE/one_step_s65_icp_vs_all9k.log
+}
+stage_val() {
+  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=1010 LAST=1099 OUT=/work/runs/stop85_icp65_val90 \
+    EXTRA="policy.checkpoint=$HERE/actors/s65_icp.pt" bash $HERE/../keyframes_45deg/run.sh
+}
+run_stages "collect train screen val" "$@"
