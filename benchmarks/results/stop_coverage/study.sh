@@ -110,7 +110,9 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
-    *) keep /work/runs/stop85_$SET $HERE/runs/$SET;;
+    val|val2|test) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
+    *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
+         "blind, gate or icp (its trials are joined with EM's)" >&2; exit 2;;
   esac
   [ -d $HERE/runs/$SET ] || continue  # not run (yet)
   $STUDY $HERE/runs/$SET --pool $SET --out $HERE/targets_$SET > $HERE/study_$SET.log
