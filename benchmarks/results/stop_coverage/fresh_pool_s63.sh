@@ -4,15 +4,19 @@
 #   em_test3       EM's trials (/work/runs/stop85_test3; policy-independent groundwork)
 #   default_test3  the shipped default's replication (actors/s56_all9k.pt, no prior; /work/runs/stop85_dagger9k_test3),
 #                  after em_test3 is complete
+#   em_test4       session 65: EM's trials on the next fresh pool 2420-2619 (/work/runs/stop85_test4), reserved for the
+#                  next candidate chosen on validation (policy-independent groundwork)
 #   bash fresh_pool_s63.sh em_test3 default_test3
 # then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 RUN="bash $HERE/../keyframes_45deg/run.sh"
 POOL="SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2220 LAST=2419"
+NEXT_POOL="SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2420 LAST=2619"  # session 65: reserved for the next candidate
 source $HERE/../keep.sh
 stage_em_test3() { env $POOL POLICIES=[em] OUT=/work/runs/stop85_test3 $RUN; }
 stage_default_test3() {
   env $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN
 }
-run_stages "em_test3 default_test3" "$@"
+stage_em_test4() { env $NEXT_POOL POLICIES=[em] OUT=/work/runs/stop85_test4 $RUN; }
+run_stages "em_test3 default_test3 em_test4" "$@"
