@@ -53,3 +53,8 @@ run_stages() {
     echo "$stage end $(date -u +%H:%M:%S)"
   done
 }
+
+# stop85 KEY=VALUE...: keyframes_45deg/run.sh with the stop-85 config of every held-out pool and validation run
+# (slam=icp, a 600 m travel budget, graph.max_nodes=4096) and the given run.sh settings (POLICIES, FIRST, LAST, OUT,
+# EXTRA)
+stop85() { env SLAM=icp BUDGET=600 MAX_NODES=4096 "$@" bash $RESULTS/keyframes_45deg/run.sh; }

@@ -10,13 +10,12 @@
 # then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
-RUN="bash $HERE/../keyframes_45deg/run.sh"
-POOL="SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2220 LAST=2419"
-NEXT_POOL="SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2420 LAST=2619"  # session 65: reserved for the next candidate
+POOL="FIRST=2220 LAST=2419"
+NEXT_POOL="FIRST=2420 LAST=2619"  # session 65: reserved for the next candidate
 source $HERE/../keep.sh
-stage_em_test3() { env $POOL POLICIES=[em] OUT=/work/runs/stop85_test3 $RUN; }
+stage_em_test3() { stop85 $POOL POLICIES=[em] OUT=/work/runs/stop85_test3; }
 stage_default_test3() {
-  env $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN
+  stop85 $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt"
 }
-stage_em_test4() { env $NEXT_POOL POLICIES=[em] OUT=/work/runs/stop85_test4 $RUN; }
+stage_em_test4() { stop85 $NEXT_POOL POLICIES=[em] OUT=/work/runs/stop85_test4; }
 run_stages "em_test3 default_test3 em_test4" "$@"

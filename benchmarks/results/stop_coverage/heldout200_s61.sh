@@ -10,21 +10,18 @@
 # then SETS="test2 prior_dagger0.04_test prior_dagger0.04_test2 prior_dagger0.04_test200" bash study.sh
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
-RUN="bash $HERE/../keyframes_45deg/run.sh"
 source $HERE/../keep.sh
 stage_prior_test() {
-  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2020 LAST=2119 \
-    OUT=/work/runs/stop85_prior_dagger0.04_test EXTRA="policy.loop_bias=0.04" $RUN
+  stop85 POLICIES=[learned] FIRST=2020 LAST=2119 OUT=/work/runs/stop85_prior_dagger0.04_test EXTRA="policy.loop_bias=0.04"
 }
 stage_em_test2() {
-  POLICIES=[em] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 OUT=/work/runs/stop85_test2 $RUN
+  stop85 POLICIES=[em] FIRST=2120 LAST=2219 OUT=/work/runs/stop85_test2
 }
 stage_prior_test2() {
-  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
-    OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04" $RUN
+  stop85 POLICIES=[learned] FIRST=2120 LAST=2219 OUT=/work/runs/stop85_prior_dagger0.04_test2 EXTRA="policy.loop_bias=0.04"
 }
 stage_default_test2() {
-  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=2120 LAST=2219 \
-    OUT=/work/runs/stop85_dagger9k_test2 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt" $RUN
+  stop85 POLICIES=[learned] FIRST=2120 LAST=2219 OUT=/work/runs/stop85_dagger9k_test2 \
+    EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt"
 }
 run_stages "prior_test em_test2 prior_test2 default_test2" "$@"

@@ -31,7 +31,7 @@ stage_screen() {  # descriptive: the new actor against s56_all9k on the held-out
     > $HERE/one_step_s65_icp_vs_all9k.log
 }
 stage_val() {
-  POLICIES=[learned] SLAM=icp BUDGET=600 MAX_NODES=4096 FIRST=1010 LAST=1099 OUT=/work/runs/stop85_icp65_val90 \
-    EXTRA="policy.checkpoint=$HERE/actors/s65_icp.pt" bash $HERE/../keyframes_45deg/run.sh
+  stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_icp65_val90 \
+    EXTRA="policy.checkpoint=$HERE/actors/s65_icp.pt"
 }
 run_stages "collect train screen val" "$@"
