@@ -12,7 +12,11 @@ and to nearest frontier. Times are each policy's ``choose`` (after a warm-up cal
 mean of the same number of repeats for EM and the learned policy: 3, ``--quick`` 2);
 ``ms_state`` is the state itself (the runner's ``observe``: frontiers, Dijkstra, paths; what every policy pays
 before choosing, timed once per decision), so ``em_over_learned_decide``
-compares what the runner's ``ms_decide`` column holds. On every state the fast path must
+compares what the runner's ``ms_decide`` column holds. ``ms_observe`` times that observation again
+like the choices (warm-up, repeats) and ``ms_observe_reference`` the same moment observed by every
+stage as first written (``Explorer.observe(reference=True)``: whole-grid traversability, frontiers
+and graph, one path at a time); ``same_observation``: both give the state bit for bit,
+``observe_speedup`` their ratio. On every state the fast path must
 be the reference's decision under :class:`~explore_rl.planning.learned.Equivalence`
 (round-off only: the same frontier, node features within 1e-9 relative, logits within
 1e-6 of the largest, probabilities within 1e-6). ``em_over_shared`` is the structural
@@ -140,6 +144,15 @@ def measure_state(state: ExplorationState, ms_state: float, learned: LearnedPoli
             **ms_hybrid, **part_times(state, learned, repeats)}
 
 
+def observation_times(explorer: Explorer, state: ExplorationState, repeats: int) -> dict:
+    """Milliseconds of the runner's observation of ``state``'s moment and of its reference
+    (every stage as first written), timed alike, and whether both observed ``state``."""
+    same = state.same_observation(explorer.observe()) and state.same_observation(explorer.observe(reference=True))
+    return {"ms_observe": 1e3 * time_call(explorer.observe, repeats),
+            "ms_observe_reference": 1e3 * time_call(lambda: explorer.observe(reference=True), repeats),
+            "same_observation": same}
+
+
 def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: list[str]) -> list[dict]:
     """Drive ``scene`` with the learned policy (fast path); measure every ``every``-th state."""
     config = load_config([f"scene={scene}", *ZERO_SHOT, *extra])
@@ -162,7 +175,8 @@ def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: lis
             break
         if decision % every == every - 1:
             rows.append({"scene": scene, "decision": decision, "features": learned.features,
-                         **measure_state(state, ms_state, learned, reference, em, repeats, hybrids)})
+                         **measure_state(state, ms_state, learned, reference, em, repeats, hybrids),
+                         **observation_times(explorer, state, repeats)})
             r = rows[-1]
             print(f"{scene:7s} {decision:3d} {r['poses']:5d} {r['graph_nodes']:6d} {r['ms_state']:8.1f} "
                   f"{r['ms_em']:8.1f} {r['ms_learned']:8.1f} {r['ms_learned_reference']:8.1f} "
@@ -176,7 +190,8 @@ def explore(scene: str, max_decisions: int, every: int, repeats: int, extra: lis
 def summary(rows: list[dict]) -> dict:
     """Means and medians over the measured states, the ratios of the means and the median
     of the per-state ratios (single states are noisy on a shared machine: the median)."""
-    keys = ("ms_state", "ms_em", "ms_learned", "ms_learned_reference", "ms_nearest", "ms_learned_actions",
+    keys = ("ms_state", "ms_observe", "ms_observe_reference", "ms_em", "ms_learned", "ms_learned_reference",
+            "ms_nearest", "ms_learned_actions",
             "ms_learned_graph", "ms_learned_forward", "poses",
             *[key for key in rows[0] if key.startswith(("ms_part_", "ms_top"))])
     mean = {key: float(np.mean([r[key] for r in rows])) for key in keys}
@@ -192,6 +207,7 @@ def summary(rows: list[dict]) -> dict:
             "em_over_shared": round(mean["ms_em"] / (mean["ms_part_actions"] + mean["ms_part_marginals"]), 2),
             "em_over_learned_decide_median": round(float(np.median(decide)), 2),
             "em_over_learned_min": round(float(ratios.min()), 2),
+            "observe_speedup": round(mean["ms_observe_reference"] / mean["ms_observe"], 2),
             **{f"em_over_top{k}": round(mean["ms_em"] / mean[f"ms_top{k}"], 2) for k in SHORTLISTS},
             "states_at_5x": int(np.sum(ratios >= 5)),
             "reference_over_learned": round(mean["ms_learned_reference"] / mean["ms_learned"], 2),
@@ -241,6 +257,7 @@ def main() -> None:
           "features": features, "reads_covariances": reads_covariances(features) if features else None,
           **summary(rows), "scenes": scenes,
           "same_choice": all(r["same_choice"] for r in rows),
+          "same_observation": all(r["same_observation"] for r in rows),
           "equivalent": all(r["equivalent"] for r in rows),
           "equivalence": asdict(EQUIVALENCE),
           **{key: max(r[key] for r in rows) for key in ("feature_rel_diff", "logit_rel_diff", "probability_diff",

@@ -24,7 +24,7 @@ import numpy as np
 
 from explore_rl.local_planner import make_local_planner
 from explore_rl.mapping.frontiers import Frontier, find_frontiers
-from explore_rl.mapping.paths import PathPlanner, path_length, simplify_path, traversability
+from explore_rl.mapping.paths import PathPlanner, path_length, simplify_path, traversability, traversability_reference
 from explore_rl.planning.policies import Policy, make_policy
 from explore_rl.robot import PathStatus, Robot
 from explore_rl.run_config import ExploreConfig as ExploreConfig  # the config lives there
@@ -113,25 +113,28 @@ class Explorer:
 
     # ------------------------------------------------------------------ observe
 
-    def observe(self) -> ExplorationState | None:
-        """The exploration state at the robot's belief pose; None if no frontier is reachable."""
+    def observe(self, reference: bool = False) -> ExplorationState | None:
+        """The exploration state at the robot's belief pose; None if no frontier is reachable.
+        ``reference``: every stage as first written (whole-grid traversability, frontiers and
+        graph, one path at a time): the same state, for the equivalence test and benchmarks."""
         occupancy = self.session.occupancy
         grid = self.scene.grid
-        traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, grid,
-                                           self.config.robot.radius, self.config.mapping.paths)
+        traversable, cost = (traversability_reference if reference else traversability)(
+            occupancy.known_free, occupancy.known_occupied, grid, self.config.robot.radius, self.config.mapping.paths)
         frontiers = find_frontiers(occupancy.known_free, occupancy.unknown, grid,
-                                   self.config.mapping.frontiers, traversable)
+                                   self.config.mapping.frontiers, traversable, reference=reference)
         pose = self.robot.belief_pose.copy()
-        field_ = PathPlanner(grid, traversable, cost, self.config.mapping.paths).from_start(pose[:2])
+        field_ = PathPlanner(grid, traversable, cost, self.config.mapping.paths,
+                             reference=reference).from_start(pose[:2])
         # The path's first cell is the robot's own cell, replaced by its exact position; if
         # that cell is not traversable (inside the inflated obstacles) the planner started
         # from the nearest traversable cell instead, which stays the first waypoint: the way out.
         snapped = field_.start_cell is not None and not np.array_equal(field_.start_cell, grid.world_to_cell(pose[:2]))
+        frontiers = [frontier for frontier in frontiers if not self.is_skipped(frontier)]
+        waypoints = np.array([frontier.waypoint_cell for frontier in frontiers]).reshape(-1, 2)
+        paths = [field_.path_to(cell) for cell in waypoints] if reference else field_.paths_to(waypoints)
         candidates = []
-        for frontier in frontiers:
-            if self.is_skipped(frontier):
-                continue
-            path = field_.path_to(frontier.waypoint_cell)
+        for frontier, path in zip(frontiers, paths):
             if path is None:
                 continue
             if snapped:

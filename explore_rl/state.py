@@ -38,3 +38,18 @@ class ExplorationState:
     nearest: int  # index into candidates of the shortest path
     distance_field: DistanceField
     traversable: np.ndarray
+
+    def same_observation(self, other: ExplorationState) -> bool:
+        """Whether ``other`` observed the same moment identically: the same candidates
+        (frontier cells, waypoints, paths, lengths), nearest, traversable cells and distance
+        field, bit for bit (the runner's observation against its reference)."""
+        if len(self.candidates) != len(other.candidates) or self.nearest != other.nearest:
+            return False
+        for mine, theirs in zip(self.candidates, other.candidates):
+            if not (np.array_equal(mine.frontier.cells, theirs.frontier.cells)
+                    and np.array_equal(mine.frontier.waypoint_cell, theirs.frontier.waypoint_cell)
+                    and np.array_equal(mine.path, theirs.path) and mine.length == theirs.length):
+                return False
+        return (np.array_equal(self.traversable, other.traversable)
+                and np.array_equal(self.distance_field.distances, other.distance_field.distances)
+                and np.array_equal(self.distance_field.predecessors, other.distance_field.predecessors))

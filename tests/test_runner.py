@@ -1,6 +1,7 @@
 """The exploration loop: clean endings, safe paths, and nearest frontier on the street."""
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -51,6 +52,26 @@ def test_candidate_paths_stay_on_traversable_cells():
                 np.linalg.norm(np.diff(candidate.path, axis=0), axis=1).sum())
         assert state.candidates[state.nearest].length == min(c.length for c in state.candidates)
         explorer.step()
+
+
+@pytest.mark.parametrize("scene", ["street", "garage"])
+def test_the_observation_is_the_reference_observations(scene):
+    """The runner's observation (windowed traversability, frontiers and graph, paths walked
+    together) equals the one of every stage as first written, along a real exploration."""
+    config = load_config(f"scene={scene}", "explore.progress_bar=false")
+    explorer = Explorer(config)
+    candidates = 0
+    for _ in range(5):
+        fast, reference = explorer.observe(), explorer.observe(reference=True)
+        assert fast is not None and reference is not None
+        assert fast.same_observation(reference)
+        candidates += len(fast.candidates)
+        explorer.step()
+    assert candidates >= 15
+    moved = explorer.observe()  # a later moment is a different observation: the comparison can fail
+    assert not moved.same_observation(reference)
+    nudged = replace(moved.candidates[-1], path=moved.candidates[-1].path + [[0.0, 1e-12]])
+    assert not moved.same_observation(replace(moved, candidates=[*moved.candidates[:-1], nudged]))
 
 
 def test_decision_records_are_logged():

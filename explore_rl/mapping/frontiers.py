@@ -36,18 +36,23 @@ def find_frontiers(
     grid: GridSpec,
     config: FrontierConfig | None = None,
     traversable: np.ndarray | None = None,
+    reference: bool = False,
 ) -> list[Frontier]:
     """Frontier clusters (8-connected) of at least ``min_cluster_cells``, sorted by waypoint cell.
 
     The waypoint is the cluster cell closest to the cluster centroid — among traversable
     cells when ``traversable`` is given. A cluster without a traversable cell takes the
     traversable cell within ``waypoint_search_radius`` closest to its centroid, or is
-    dropped if there is none.
+    dropped if there is none. The clusters are found over the window of the free cells
+    (``reference``: over the whole grid, as first written; the same frontiers).
     """
     config = config or FrontierConfig()
-    mask = frontier_mask(occupancy_free, unknown, config.neighbourhood)
+    if reference:
+        clusters = _clusters(frontier_mask(occupancy_free, unknown, config.neighbourhood))
+    else:
+        clusters = _frontier_clusters(occupancy_free, unknown, config.neighbourhood)
     frontiers = []
-    for cells in _split_long_clusters(_clusters(mask), grid, config.max_cluster_extent):
+    for cells in _split_long_clusters(clusters, grid, config.max_cluster_extent):
         if len(cells) < config.min_cluster_cells:
             continue
         waypoint = _waypoint(cells, traversable, grid, config)
@@ -56,6 +61,21 @@ def find_frontiers(
         frontiers.append(Frontier(cells, waypoint, grid.cell_to_world(waypoint), len(cells)))
     frontiers.sort(key=lambda f: (int(f.waypoint_cell[0]), int(f.waypoint_cell[1])))
     return frontiers
+
+
+def _frontier_clusters(free: np.ndarray, unknown: np.ndarray, neighbourhood: int) -> list[np.ndarray]:
+    """:func:`_clusters` of :func:`frontier_mask`, computed over the window of the free cells
+    widened by one cell (a frontier cell is free, and its neighbours lie in that window):
+    the same clusters, cells and order as over the whole grid (tests/mapping/test_frontiers.py)."""
+    free = np.asarray(free, dtype=bool)
+    rows, cols = np.flatnonzero(free.any(axis=1)), np.flatnonzero(free.any(axis=0))
+    if not len(rows):
+        return []
+    low = np.maximum([rows[0] - 1, cols[0] - 1], 0)
+    high = np.minimum([rows[-1] + 2, cols[-1] + 2], free.shape)
+    window = tuple(slice(lo, hi) for lo, hi in zip(low, high))
+    return [cells + low for cells in _clusters(frontier_mask(free[window], np.asarray(unknown)[window],
+                                                              neighbourhood))]
 
 
 def _clusters(mask: np.ndarray) -> list[np.ndarray]:
@@ -79,8 +99,8 @@ def _split_long_clusters(
         if np.ptp(cells, axis=0).max() < tile:
             pieces.append(cells)
             continue
-        tiles = cells // tile
-        _, ids = np.unique(tiles, axis=0, return_inverse=True)
+        tiles = cells // tile  # non-negative: one key per tile, in the rows' lexicographic order
+        _, ids = np.unique(tiles[:, 0] * (tiles[:, 1].max() + 1) + tiles[:, 1], return_inverse=True)
         pieces += [cells[ids.reshape(-1) == i] for i in range(ids.max() + 1)]
     return pieces
 

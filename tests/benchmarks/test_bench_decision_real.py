@@ -15,7 +15,8 @@ KEYS = ["ms_em", "ms_learned", "ms_learned_reference", "em_over_learned", "em_ov
         "em_over_learned_median", "em_over_shared", "ms_state", "same_choice", "equivalent",
         "equivalence", "feature_rel_diff", "logit_rel_diff", "probability_diff", "max_logit_diff", "ms_part_actions",
         "ms_part_marginals", "ms_part_landmarks", "ms_part_forward", "ms_part_forward_reference", "scenes", "rows",
-        "ms_top2", "ms_top3", "em_over_top2", "em_over_top3"]
+        "ms_top2", "ms_top3", "em_over_top2", "em_over_top3", "ms_observe", "ms_observe_reference",
+        "observe_speedup", "same_observation"]
 
 
 def test_bench_decision_real_smoke(tmp_path: Path) -> None:
@@ -25,6 +26,7 @@ def test_bench_decision_real_smoke(tmp_path: Path) -> None:
     assert not missing, f"JSON last line lacks {missing} (has {sorted(result)})"
     assert result["states"] == len(result["rows"]) == 2 and set(result["scenes"]) == {"office"}
     assert result["same_choice"] is True and result["equivalent"] is True
+    assert result["same_observation"] is True and result["ms_observe"] > 0 and result["ms_observe_reference"] > 0
     assert result["feature_rel_diff"] <= result["equivalence"]["feature_rtol"]
     assert result["logit_rel_diff"] <= result["equivalence"]["logit_rtol"]
     assert result["probability_diff"] <= result["equivalence"]["probability_atol"]

@@ -5,7 +5,13 @@ import pytest
 
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.config import FrontierConfig
-from explore_rl.mapping.frontiers import find_frontiers, frontier_mask
+from explore_rl.mapping.frontiers import (
+    _clusters,
+    _frontier_clusters,
+    _split_long_clusters,
+    find_frontiers,
+    frontier_mask,
+)
 
 GRID = GridSpec((0.0, 0.0), 0.1, (20, 20))
 
@@ -112,3 +118,65 @@ def test_waypoint_search_around_an_untraversable_frontier():
 def test_no_unknown_means_no_frontiers():
     free = np.ones(GRID.shape, dtype=bool)
     assert find_frontiers(free, np.zeros(GRID.shape, dtype=bool), GRID) == []
+
+
+def split_by_sorted_rows(clusters, grid, max_extent):
+    """The first ``_split_long_clusters``: tiles numbered by ``np.unique`` over their rows."""
+    tile = max(1, int(round(max_extent / grid.resolution)))
+    pieces = []
+    for cells in clusters:
+        if np.ptp(cells, axis=0).max() < tile:
+            pieces.append(cells)
+            continue
+        _, ids = np.unique(cells // tile, axis=0, return_inverse=True)
+        pieces += [cells[ids.reshape(-1) == i] for i in range(ids.max() + 1)]
+    return pieces
+
+
+def partly_known(seed, shape=(41, 37)):
+    """Free, occupied and unknown cells; the known part touches the grid's edges or not."""
+    rng = np.random.default_rng(seed)
+    state = np.full(shape, 2)  # unknown
+    top, left = [(0, 0), (5, 7), (9, 0), (3, 12)][seed % 4]
+    state[top: top + 28, left: left + 25] = rng.choice(3, size=(28, 25), p=[0.88, 0.08, 0.04])[
+        : shape[0] - top, : shape[1] - left]
+    return state == 0, state == 2
+
+
+@pytest.mark.parametrize("neighbourhood", [4, 8])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_clusters_over_the_free_window_are_the_whole_grids(seed, neighbourhood):
+    """Frontier clusters found over the window of the free cells (widened by one) are those
+    of the whole grid's mask, cell for cell and in the same order; splitting long clusters
+    by one key per tile gives the pieces of splitting by sorted tile rows."""
+    free, unknown = partly_known(seed)
+    windowed = _frontier_clusters(free, unknown, neighbourhood)
+    whole = _clusters(frontier_mask(free, unknown, neighbourhood))
+    assert len(whole) > 3
+    assert len(windowed) == len(whole)
+    for got, expected in zip(windowed, whole):
+        np.testing.assert_array_equal(got, expected)
+    grid = GridSpec((0.0, 0.0), 0.1, free.shape)
+    pieces, expected_pieces = _split_long_clusters(whole, grid, 0.6), split_by_sorted_rows(whole, grid, 0.6)
+    assert len(pieces) > len(whole)  # some clusters were cut
+    assert len(pieces) == len(expected_pieces)
+    for got, expected in zip(pieces, expected_pieces):
+        np.testing.assert_array_equal(got, expected)
+    assert _frontier_clusters(np.zeros_like(free), unknown, neighbourhood) == []
+
+
+def test_frontiers_of_real_explorations_are_the_whole_grids():
+    """Street and office after a few decisions: the windowed clusters are the whole grid's."""
+    from explore_rl.config import load_config
+    from explore_rl.runner import Explorer
+
+    for scene in ("street", "office"):
+        explorer = Explorer(load_config([f"scene={scene}", "policy=nearest", "explore.progress_bar=false"]))
+        for _ in range(3):
+            explorer.step()
+        occupancy, config = explorer.session.occupancy, explorer.config.mapping.frontiers
+        windowed = _frontier_clusters(occupancy.known_free, occupancy.unknown, config.neighbourhood)
+        whole = _clusters(frontier_mask(occupancy.known_free, occupancy.unknown, config.neighbourhood))
+        assert len(whole) >= 3 and len(windowed) == len(whole)
+        for got, expected in zip(windowed, whole):
+            np.testing.assert_array_equal(got, expected)

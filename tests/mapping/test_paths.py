@@ -16,6 +16,7 @@ from explore_rl.mapping.paths import (
     path_length,
     simplify_path,
     traversability,
+    traversability_reference,
 )
 from explore_rl.robot import RobotConfig
 from explore_rl.sensors.lidar import Lidar, LidarConfig
@@ -202,6 +203,83 @@ def test_start_inside_inflation_snaps_to_nearest_traversable_cell():
     assert blocked.path_to(np.array([3, 5])) is None and not blocked.reachable.any()
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_paths_walked_together_are_the_paths_walked_one_by_one(seed):
+    """:meth:`DistanceField.paths_to` (every chain in step) returns :meth:`path_to` of each
+    cell, array for array: reachable cells near and far, the start itself, unreachable
+    cells, cells off the grid, and a repeated cell, in the order given."""
+    rng = np.random.default_rng(seed)
+    traversable = rng.random((23, 31)) > 0.15
+    traversable[:, 20] = False  # a wall: the cells beyond it are unreachable
+    traversable[11, 20] = seed == 2  # with a door in one map
+    cost = np.where(traversable, 1.0 + 2.0 * rng.random(traversable.shape), np.inf)
+    grid = GridSpec((0.0, 0.0), RES, traversable.shape)
+    start = tuple(int(v) for v in np.argwhere(traversable[:, :20])[len(np.argwhere(traversable[:, :20])) // 2])
+    field = PathPlanner(grid, traversable, cost).from_start(grid.cell_to_world(np.array(start)))
+    reachable = np.argwhere(np.isfinite(field.distances))
+    assert len(reachable) > 100  # long chains of many lengths
+    unreachable = np.argwhere(~np.isfinite(field.distances))[:3]
+    cells = np.vstack([reachable[::5], [start], unreachable, [[-1, 0], [40, 3]], reachable[:1]])
+    together = field.paths_to(cells)
+    assert len(together) == len(cells)
+    for cell, path in zip(cells, together):
+        expected = field.path_to(cell)
+        if expected is None:
+            assert path is None
+        else:
+            np.testing.assert_array_equal(path, expected)
+    assert sum(path is None for path in together) == len(unreachable) + 2
+    assert field.paths_to(np.zeros((0, 2), dtype=int)) == []
+
+
+def test_a_broken_predecessor_chain_is_refused_not_walked_forever():
+    grid, traversable, cost, start = random_map(0)
+    field = PathPlanner(grid, traversable, cost).from_start(grid.cell_to_world(np.array(start)))
+    far = np.argwhere(np.isfinite(field.distances))[-1]
+    broken = field.predecessors.copy()
+    broken[tuple(far)] = -9999  # scipy's "no predecessor" on a cell that is not the start
+    field.predecessors = broken
+    with pytest.raises(RuntimeError, match="does not reach the start"):
+        field.paths_to(far[None])
+    looped = field.predecessors.copy()
+    here = int(np.ravel_multi_index(tuple(far), grid.shape))
+    looped[tuple(far)] = here  # a cell its own predecessor
+    field.predecessors = looped
+    with pytest.raises(RuntimeError, match="cycle"):
+        field.paths_to(far[None])
+
+
+def known_map(seed, shape=(37, 29)):
+    """A partly known map: a known blob (free, with occupied specks and a wall) away from
+    or touching the grid's edges, the rest unknown."""
+    rng = np.random.default_rng(seed)
+    known = np.zeros(shape, dtype=bool)
+    top, left = [(0, 0), (6, 4), (2, 9), (12, 0)][seed % 4]
+    known[top: top + 20, left: left + 17] = True
+    occupied = known & (rng.random(shape) < 0.06)
+    occupied[top + 10, left: left + 12] = known[top + 10, left: left + 12]
+    return GridSpec((0.0, 0.0), RES, shape), known & ~occupied, occupied
+
+
+@pytest.mark.parametrize("border", [True, False])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_traversability_over_the_known_window_is_the_whole_grids(seed, border):
+    """:func:`traversability` (over the window of known cells, the border ring by its
+    distance) equals :func:`traversability_reference` (the whole grid) bit for bit: maps
+    whose known part touches the grid's edges or not, with and without occupied cells,
+    and a map with nothing known."""
+    config = PathConfig(grid_border_is_obstacle=border, inflation_margin=0.02)
+    grid, free, occupied = known_map(seed)
+    cases = [(free, occupied), (free | occupied, np.zeros_like(occupied)),
+             (np.zeros_like(free), np.zeros_like(occupied))]
+    for known_free, known_occupied in cases:
+        fast = traversability(known_free, known_occupied, grid, 0.12, config)
+        reference = traversability_reference(known_free, known_occupied, grid, 0.12, config)
+        for got, expected in zip(fast, reference):
+            np.testing.assert_array_equal(got, expected)
+    assert traversability(free, occupied, grid, 0.12, config)[0].sum() > 50  # not vacuous
+
+
 def test_path_length_and_simplify():
     path = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [3.0, 2.0], [4.0, 3.0]])
     assert path_length(path) == pytest.approx(3.0 + 2 * 2**0.5)
@@ -289,6 +367,9 @@ def test_the_windowed_graph_equals_the_whole_grids_on_real_explorations():
         occupancy, grid, paths = explorer.session.occupancy, explorer.scene.grid, explorer.config.mapping.paths
         traversable, cost = traversability(occupancy.known_free, occupancy.known_occupied, grid,
                                            explorer.config.robot.radius, paths)
+        for got, expected in zip((traversable, cost), traversability_reference(
+                occupancy.known_free, occupancy.known_occupied, grid, explorer.config.robot.radius, paths)):
+            np.testing.assert_array_equal(got, expected)
         start = explorer.robot.belief_pose[:2]
         windowed = PathPlanner(grid, traversable, cost, paths).from_start(start)
         whole = PathPlanner(grid, traversable, cost, paths, reference=True).from_start(start)
@@ -298,6 +379,10 @@ def test_the_windowed_graph_equals_the_whole_grids_on_real_explorations():
                                        traversable):
             np.testing.assert_array_equal(windowed.path_to(frontier.waypoint_cell),
                                           whole.path_to(frontier.waypoint_cell))
+        waypoints = np.array([f.waypoint_cell for f in find_frontiers(
+            occupancy.known_free, occupancy.unknown, grid, explorer.config.mapping.frontiers, traversable)])
+        for together, alone in zip(windowed.paths_to(waypoints), waypoints):
+            np.testing.assert_array_equal(together, whole.path_to(alone))
 
 
 def test_a_map_without_traversable_cells_reaches_nothing():
