@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from explore_rl.grid import GridSpec
+from explore_rl.sorting import stable_argsort
 
 
 def line_of_sight(
@@ -123,7 +124,7 @@ def line_of_sight_by_length(
     samples = np.maximum(np.ceil(stop / step).astype(np.int64), 1)
     padded = np.pad(blocked, 1)
     maybe = np.flatnonzero(_box_holds_blocked(start_xy, end_xy, padded, grid))
-    order = maybe[np.argsort(samples[maybe], kind="stable")]
+    order = maybe[stable_argsort(samples[maybe])]
     padded = padded.ravel()
     for group in np.array_split(order, min(LENGTH_GROUPS, len(order))) if len(order) else []:
         n_samples = int(samples[group[-1]])

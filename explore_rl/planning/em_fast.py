@@ -61,6 +61,7 @@ import scipy.sparse as sp
 
 from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
+from explore_rl.sorting import stable_argsort
 
 if TYPE_CHECKING:
     from explore_rl.planning.em import DecisionContext, Observations, PredictedPath
@@ -373,7 +374,7 @@ class FuseRounds:
     def of(cls, observations: Observations) -> FuseRounds:
         """``observations`` (gains ``[-I | lever]``: :meth:`Observations.closed_form`)."""
         landmark_idx = observations.landmark_idx
-        order = np.argsort(landmark_idx, kind="stable")
+        order = stable_argsort(landmark_idx)
         sorted_lm = landmark_idx[order]
         starts = np.flatnonzero(np.r_[True, sorted_lm[1:] != sorted_lm[:-1]]) if len(order) else order
         counts = np.diff(np.r_[starts, len(sorted_lm)])
@@ -382,7 +383,7 @@ class FuseRounds:
         column[by_count] = np.arange(len(starts))
         rank = np.arange(len(sorted_lm)) - np.repeat(starts, counts)
         slot = rank * max(len(starts), 1) + np.repeat(column, counts)
-        rows = order[np.argsort(slot)]
+        rows = order[stable_argsort(slot)]  # distinct slots: any sort gives this order
         offsets = np.r_[0, np.cumsum(np.bincount(rank))] if len(order) else np.zeros(1, dtype=int)
         terms = lever_terms(observations.gain, observations.noise)[:, rows]
         return cls(offsets.astype(np.int64), sorted_lm[starts][by_count], observations.pose_idx[rows], terms)

@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.planning.config import RevisitConfig
+from explore_rl.sorting import stable_argsort, unique_first_inverse
 
 
 @dataclass(frozen=True)
@@ -205,7 +206,7 @@ def _closest_per_place(owner: np.ndarray, path_idx: np.ndarray, kf_idx: np.ndarr
     if len(owner) == 0:
         return owner, path_idx, kf_idx, dist
     key = owner * n_keyframes + kf_idx
-    order = np.argsort(key, kind="stable")
+    order = stable_argsort(key)
     key, path_idx, dist = key[order], path_idx[order], dist[order]
     first = _group_starts(key != np.roll(key, 1))
     closest = np.minimum.reduceat(dist, first)
@@ -270,7 +271,7 @@ def distinct_line_of_sight(start_xy: np.ndarray, start_id: np.ndarray, kf_idx: n
     ``start_id``: equal for equal starts (:func:`distinct_ids`)."""
     if len(start_xy) == 0:
         return np.ones(0, dtype=bool)
-    _, first, inverse = np.unique(start_id * len(keyframe_xy) + kf_idx, return_index=True, return_inverse=True)
+    _, first, inverse = unique_first_inverse(start_id * len(keyframe_xy) + kf_idx)
     clear = line_of_sight_by_length(start_xy[first], keyframe_xy[kf_idx[first]], blocked, grid, step_fraction)
     return clear[inverse.reshape(-1)]
 

@@ -19,6 +19,7 @@ import numpy as np
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.planning.config import VirtualMapConfig
+from explore_rl.sorting import stable_argsort
 
 # ---------------------------------------------------------------------------- 2x2 algebra
 
@@ -361,12 +362,12 @@ def fuse_in_order(covs: np.ndarray, landmark_idx: np.ndarray, observed: np.ndarr
     """
     if not len(landmark_idx):
         return
-    order = np.argsort(landmark_idx, kind="stable")
+    order = stable_argsort(landmark_idx)
     sorted_lm = landmark_idx[order]
     starts = np.flatnonzero(np.r_[True, sorted_lm[1:] != sorted_lm[:-1]])
     group_sizes = np.diff(np.r_[starts, len(sorted_lm)])
     rank = np.arange(len(sorted_lm)) - np.repeat(starts, group_sizes)
-    by_round = order[np.argsort(rank, kind="stable")]
+    by_round = order[stable_argsort(rank)]
     seen = sorted_lm[starts]
     info = [np.array(c) for c in _information(covs[seen])]
     slot = np.empty(len(covs), dtype=np.int64)  # landmark -> row of ``info``
