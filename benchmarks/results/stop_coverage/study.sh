@@ -18,6 +18,8 @@
 # Session 63's fresh held-out pool 2220-2419: runs/test3 (EM, /work/runs/stop85_test3) and a variant's X_test3 (joined
 # with runs/test3's EM like the _test2 sets; one set of 200 buildings, no halves); SETS="X_test400": runs/X_test,
 # X_test2 and X_test3 pooled against EM (2020-2419; descriptive, study_X_test400.log, by_coverage_X_test400.log).
+# Session 65's next fresh pool 2420-2619: runs/test4 (EM, /work/runs/stop85_test4) and a variant's X_test4 (joined with
+# runs/test4's EM like the _test3 sets), for the next candidate chosen on validation.
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -73,6 +75,24 @@ street_garage_variant() {
   $STUDY $HERE/runs/$1 --reference $HERE/runs/street_garage --reference-policy learned --out $HERE/targets_$1_direct \
     > $HERE/direct_$1.log
 }
+# street_garage50 (session 67): the shipped default and EM in the street and the garage at 50 trials per policy: seeds
+# 0-9 from the stored runs (the default's of runs/street_garage_dagger9k, EM's of runs/street_garage) and seeds 10-49
+# from street_garage50_s67.sh's chunks (/work/runs/stop85_street_garage50/seeds_*; their seeds 8-9 repeat stored
+# trials and are left out here): runs/street_garage50, study_street_garage50.log (descriptive, plan.md session 67)
+street_garage50() {
+  local chunks=/work/runs/stop85_street_garage50
+  for name in 0_street 1_garage; do
+    ls $chunks/seeds_*/$name/trials.jsonl > /dev/null 2>&1 || continue  # no chunk finished (yet)
+    mkdir -p $HERE/runs/street_garage50/$name
+    { grep '"policy": "learned"' $HERE/runs/street_garage_dagger9k/$name/trials.jsonl
+      grep '"policy": "em"' $HERE/runs/street_garage/$name/trials.jsonl
+      $PY -c 'import json, sys; [print(line, end="") for path in sys.argv[1:] for line in open(path)
+               if json.loads(line)["seed"] >= 10]' $chunks/seeds_*/$name/trials.jsonl
+    } > $HERE/runs/street_garage50/$name/trials.jsonl
+  done
+  [ -d $HERE/runs/street_garage50 ] || return 0
+  $STUDY $HERE/runs/street_garage50 --out $HERE/targets_street_garage50 > $HERE/study_street_garage50.log
+}
 # baselines_test: nearest frontier's and random's trials of /work/runs/stop85_baselines_test (ship_s58.sh baselines,
 # session 58) with EM's of runs/test and the shipped default's of runs/dagger9k_test, building by building:
 # runs/baselines_test/summary.md, one table of all four policies (explore_rl.comparison.combine)
@@ -99,13 +119,14 @@ held_out_pooled() {
   $STUDY $dirs --pool ${1}_$2 --out $HERE/targets_${1}_$2 > $HERE/study_${1}_$2.log
   $PY $HERE/by_coverage.py $dirs --coverages $COVERAGES > $HERE/by_coverage_${1}_$2.log
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_blind*_val90 stop85_gate*_val stop85_icp*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_*_test4 stop85_blind*_val90 stop85_gate*_val stop85_icp*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
   case $SET in
     *_test200) held_out_pooled ${SET%_test200} test200 "test test2"; continue;;
     *_test400) held_out_pooled ${SET%_test400} test400 "test test2 test3"; continue;;
-    test2|test3) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
+    test2|test3|test4) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
     street_garage) street_garage; continue;;
+    street_garage50) street_garage50; continue;;
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
