@@ -339,12 +339,41 @@ def check_evaluation(config: Config) -> None:
         load_actor(config.policy.checkpoint)
 
 
+# evaluate keys that change how the trials run, not what they are: a resumed study may change them
+RUN_ONLY_KEYS = ("workers", "threads", "progress_bar")
+
+
+def trial_settings(config: DictConfig) -> dict:
+    """A config as a plain dict without the :data:`RUN_ONLY_KEYS` of ``evaluate``: what two
+    runs must share for one to resume the other's trials."""
+    settings = OmegaConf.to_container(config, resolve=False)
+    for key in RUN_ONLY_KEYS:
+        settings.get("evaluate", {}).pop(key, None)
+    return settings
+
+
+def finished_trials_of_this_config(partial: Path, saved_config: Path, cfg: DictConfig) -> dict:
+    """The trials an earlier, unfinished ``explore-rl-eval`` into the same folder logged
+    (``comparison.PARTIAL``), if it ran this config (up to :data:`RUN_ONLY_KEYS`); a log of
+    another config is refused in one line (its trials would be mixed into this report)."""
+    from explore_rl import comparison
+
+    done = comparison.finished_trials(partial)
+    if done and (not saved_config.exists()
+                 or trial_settings(OmegaConf.load(saved_config)) != trial_settings(cfg)):
+        raise ValueError(f"out={partial.parent} holds {len(done)} finished trials of another config ({partial.name}, "
+                         f"config.yaml); pass another out= or delete {partial} to start over")
+    return done
+
+
 @entry_point()
 def evaluate(cfg: DictConfig) -> None:
     """Compare policies on one scene over trials (explore_rl/comparison.py): every decision
     (decisions.csv), mean and std per policy (summary.md), map error and 3D volume against
     travel (PNG). ``explore-rl-eval scene=street policy.checkpoint=PATH out=DIR``; a sweep
-    (``-m scene=street,garage``) also writes one summary over its runs into ``out``."""
+    (``-m scene=street,garage``) also writes one summary over its runs into ``out``. Each
+    finished trial is logged as it comes (``comparison.PARTIAL``): run the same command again
+    after a stop or a crash and only the missing trials run."""
     from hydra.core.hydra_config import HydraConfig
     from hydra.types import RunMode
 
@@ -354,14 +383,24 @@ def evaluate(cfg: DictConfig) -> None:
     settings = config.evaluate
     out = evaluation_dir(config)
     out.mkdir(parents=True, exist_ok=True)
+    partial = out / comparison.PARTIAL
+    done = finished_trials_of_this_config(partial, out / "config.yaml", cfg)
     (out / "config.yaml").write_text(OmegaConf.to_yaml(cfg))
     trials = comparison.make_trials(config, settings.policies, settings.trials)
+    remaining = [trial for trial in trials if comparison.trial_key(trial) not in done]
     log.info("%d trials (%s x %d) on %s with slam=%s, %d workers; writing to %s", len(trials),
              ",".join(settings.policies), settings.trials, comparison.scene_label(config), config.slam.frontend,
              settings.workers, out)
-    runs = comparison.run_trials(trials, settings.workers, settings.threads, progress=settings.progress_bar,
-                                 desc=f"{comparison.scene_label(config)} trials")
+    if len(remaining) < len(trials):
+        log.info("resuming: %d of %d trials were finished before (%s); running the other %d",
+                 len(trials) - len(remaining), len(trials), partial, len(remaining))
+    ran = comparison.run_trials(remaining, settings.workers, settings.threads, progress=settings.progress_bar,
+                                on_result=functools.partial(comparison.log_trial, partial),
+                                desc=f"{comparison.scene_label(config)} trials")
+    by_key = {**done, **{comparison.trial_key(run): run for run in ran}}
+    runs = [by_key[key] for key in map(comparison.trial_key, trials) if key in by_key]
     report = comparison.write_report(runs, out)
+    partial.unlink(missing_ok=True)
     print(report["table"].read_text(), end="")
     failed = [r for r in runs if r["status"] == "error"]
     for run in failed:

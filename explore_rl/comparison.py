@@ -9,6 +9,9 @@ Shared by ``explore-rl-eval`` (explore_rl/cli.py) and ``benchmarks/study_orderin
 * :func:`run_trial`: a module-level (picklable) job; a failing trial is reported, not raised;
 * :func:`run_trials`: serial (``workers=1``) or spawned worker processes, same results,
   a progress bar over trials;
+* :func:`log_trial` / :func:`finished_trials`: each finished trial appended to a log as it
+  comes (``explore-rl-eval`` keeps :data:`PARTIAL` in its output folder), so a study that is
+  stopped or crashes resumes with the trials it still lacks instead of starting over;
 * :func:`summarise`, :func:`markdown_table`, :func:`decision_rows`, :func:`plot_metric`,
   :func:`write_report`: the table (mean and std per scene and policy), the CSV of every
   decision, the plots (one line per policy: the mean over trials, a band of +-1 std);
@@ -210,6 +213,49 @@ def run_trials(trials: Sequence[Trial], workers: int = 1, threads: int = 1, prog
     finally:
         bar.close()
     return [r for r in results if r is not None]
+
+
+# ---------------------------------------------------------------------- resuming
+
+# explore-rl-eval's log of the trials finished so far (removed once the report is written)
+PARTIAL = "trials.partial.jsonl"
+
+
+def trial_key(item: Trial | dict) -> tuple[str, int, int]:
+    """``(policy, trial, seed)`` of a :class:`Trial` or of a finished trial's record."""
+    if isinstance(item, Trial):
+        return item.policy, int(item.trial), int(item.config.seed)
+    return str(item["policy"]), int(item["trial"]), int(item["seed"])
+
+
+def log_trial(path: Path, run: dict) -> None:
+    """Append one finished trial to ``path`` (one JSON object a line), flushed at once."""
+    with open(path, "a") as handle:
+        handle.write(json.dumps(run) + "\n")
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+def finished_trials(path: Path) -> dict[tuple[str, int, int], dict]:
+    """The trials :func:`log_trial` wrote to ``path``, by :func:`trial_key` (none if there is no
+    such file). A last line cut short by a crash is left out, with a warning; a damaged line
+    before it is refused in one line (the log is not this module's)."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    lines = [line for line in path.read_text().splitlines() if line.strip()]
+    found = {}
+    for number, line in enumerate(lines, start=1):
+        try:
+            run = json.loads(line)
+        except json.JSONDecodeError:
+            if number == len(lines):
+                log.warning("%s: its last line is cut short (the run stopped while writing it); that trial runs again",
+                            path)
+                break
+            raise ValueError(f"{path}: line {number} is not a trial record; delete the file to start the trials over")
+        found[trial_key(run)] = run
+    return found
 
 
 # ---------------------------------------------------------------------- summaries

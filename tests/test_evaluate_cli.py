@@ -165,3 +165,48 @@ def test_trials_run_in_this_process_use_evaluate_threads_torch_threads(monkeypat
         assert torch.get_num_threads() == 2
     finally:
         torch.set_num_threads(before)
+
+
+def test_finished_trials_read_back_what_log_trial_wrote_and_skip_a_cut_last_line(tmp_path, caplog):
+    path = tmp_path / comparison.PARTIAL
+    assert comparison.finished_trials(path) == {}
+    first, second = synthetic_run("em", 0, [0.1, 0.2]), synthetic_run("nearest", 3, [0.4])
+    comparison.log_trial(path, first)
+    comparison.log_trial(path, second)
+    assert comparison.finished_trials(path) == {("em", 0, 0): first, ("nearest", 3, 3): second}
+    with open(path, "a") as handle:  # a crash while writing the third record
+        handle.write(json.dumps(synthetic_run("em", 1, [0.3]))[:40])
+    assert list(comparison.finished_trials(path)) == [("em", 0, 0), ("nearest", 3, 3)]
+    assert "cut short" in caplog.text
+    path.write_text("not json\n" + json.dumps(first) + "\n")  # damage before the end is not a crash's
+    with pytest.raises(ValueError, match="line 1 is not a trial record"):
+        comparison.finished_trials(path)
+
+
+def test_eval_resumes_the_trials_it_lacks_and_refuses_another_configs_log(tmp_path):
+    """A study stopped after one of its trials: the same command runs only the other one (the logged trial is
+    kept as logged, not run again), writes the whole report and drops the log; a log of another config is
+    refused in one line before anything runs."""
+    out = tmp_path / "eval"
+    command = [*TINY, "evaluate.policies=[nearest]", "evaluate.workers=1", f"out={out}"]
+    assert run_eval(*command, cwd=tmp_path).returncode == 0
+    first = {run["trial"]: run for run in comparison.read_trials(out / "trials.jsonl")}
+    marked = {**first[0], "ms_decide": -1.0}  # what only the logged record holds
+    (out / "trials.jsonl").unlink()
+    comparison.log_trial(out / comparison.PARTIAL, marked)
+
+    proc = run_eval(*command, "evaluate.workers=2", "evaluate.progress_bar=true", cwd=tmp_path)  # run-only keys
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert "resuming: 1 of 2 trials were finished before" in proc.stdout + proc.stderr
+    again = {run["trial"]: run for run in comparison.read_trials(out / "trials.jsonl")}
+    assert again[0] == marked and again[1]["ms_decide"] > 0
+    assert again[1]["rows"] and again[1]["travel_m"] == pytest.approx(first[1]["travel_m"], rel=1e-9)
+    assert not (out / comparison.PARTIAL).exists()
+
+    comparison.log_trial(out / comparison.PARTIAL, marked)
+    proc = run_eval(*[c for c in command if not c.startswith("explore.max_decisions")], "explore.max_decisions=3",
+                    cwd=tmp_path)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "finished trials of another config" in lines[0] and f"out={out}" in lines[0]
+    assert (out / comparison.PARTIAL).exists()  # nothing ran, nothing was removed
