@@ -386,11 +386,11 @@ def evaluate(cfg: DictConfig) -> None:
     partial = out / comparison.PARTIAL
     done = finished_trials_of_this_config(partial, out / "config.yaml", cfg)
     (out / "config.yaml").write_text(OmegaConf.to_yaml(cfg))
-    trials = comparison.make_trials(config, settings.policies, settings.trials)
+    trials = comparison.make_trials(config, settings.policies, settings.trials, settings.first_trial)
     remaining = [trial for trial in trials if comparison.trial_key(trial) not in done]
-    log.info("%d trials (%s x %d) on %s with slam=%s, %d workers; writing to %s", len(trials),
-             ",".join(settings.policies), settings.trials, comparison.scene_label(config), config.slam.frontend,
-             settings.workers, out)
+    log.info("%d trials (%s x %d from trial %d) on %s with slam=%s, %d workers; writing to %s", len(trials),
+             ",".join(settings.policies), settings.trials, settings.first_trial, comparison.scene_label(config),
+             config.slam.frontend, settings.workers, out)
     if len(remaining) < len(trials):
         log.info("resuming: %d of %d trials were finished before (%s); running the other %d",
                  len(trials) - len(remaining), len(trials), partial, len(remaining))

@@ -87,9 +87,11 @@ def trial_config(config: Config, policy: str, trial: int) -> Config:
                                policy=dataclasses.replace(config.policy, name=policy))
 
 
-def make_trials(config: Config, policies: Sequence[str], trials: int) -> list[Trial]:
-    """Trial-major order (every policy of trial 0 first), so a partial run is balanced."""
-    return [Trial(trial_config(config, policy, t), t) for t in range(trials) for policy in policies]
+def make_trials(config: Config, policies: Sequence[str], trials: int, first: int = 0) -> list[Trial]:
+    """Trials ``first .. first + trials - 1`` of every policy, trial-major (every policy of the
+    first trial first), so a partial run is balanced; trial ``t`` is seeded ``config.seed + t``
+    in the scene ``config`` holds, so more trials of a study are ``first`` = the trials it has."""
+    return [Trial(trial_config(config, policy, t), t) for t in range(first, first + trials) for policy in policies]
 
 
 def scene_label(config: Config) -> str:

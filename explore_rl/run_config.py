@@ -62,6 +62,7 @@ class EvaluateConfig:
 
     policies: list[str] = field(default_factory=lambda: list(POLICIES))
     trials: int = 10
+    first_trial: int = 0  # trials first_trial .. first_trial + trials - 1: more trials of the same study
     workers: int = 2  # worker processes (spawned); 1 runs the trials in this process
     threads: int = 1  # torch / BLAS threads per worker
     progress_bar: bool = True
@@ -73,3 +74,5 @@ class EvaluateConfig:
         for key in ("trials", "workers", "threads"):
             if getattr(self, key) < 1:
                 raise ValueError(f"evaluate.{key} must be >= 1, got {getattr(self, key)}")
+        if self.first_trial < 0:
+            raise ValueError(f"evaluate.first_trial must be >= 0, got {self.first_trial}")

@@ -210,3 +210,17 @@ def test_eval_resumes_the_trials_it_lacks_and_refuses_another_configs_log(tmp_pa
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "finished trials of another config" in lines[0] and f"out={out}" in lines[0]
     assert (out / comparison.PARTIAL).exists()  # nothing ran, nothing was removed
+
+
+def test_first_trial_gives_more_trials_of_the_same_study_where_another_seed_would_change_the_scene():
+    config = load_config(["scene=street"])
+    ten = comparison.make_trials(config, ["em", "nearest"], 10)
+    more = comparison.make_trials(config, ["em", "nearest"], 3, first=8)
+    assert [(t.policy, t.trial) for t in more] == [(p, t) for t in (8, 9, 10) for p in ("em", "nearest")]
+    assert more[0].config == ten[16].config and more[3].config == ten[19].config  # trials 8 and 9 as in the study
+    assert [t.config.seed for t in more[::2]] == [8, 9, 10] and {t.config.scene.seed for t in more} == {0}
+    # the trap first_trial avoids: seed=8 seeds the trials 8, 9, ... but also draws the scene from seed 8
+    shifted = comparison.make_trials(load_config(["scene=street", "seed=8"]), ["em"], 1)[0].config
+    assert shifted.seed == 8 and shifted.scene.seed == 8 != more[0].config.scene.seed
+    with pytest.raises(ValueError, match="evaluate.first_trial must be >= 0"):
+        load_config(["evaluate.first_trial=-1"])
