@@ -385,6 +385,8 @@ def evaluate(cfg: DictConfig) -> None:
     out.mkdir(parents=True, exist_ok=True)
     partial = out / comparison.PARTIAL
     done = finished_trials_of_this_config(partial, out / "config.yaml", cfg)
+    if partial.exists():
+        comparison.restart_log(partial, done.values())
     (out / "config.yaml").write_text(OmegaConf.to_yaml(cfg))
     trials = comparison.make_trials(config, settings.policies, settings.trials, settings.first_trial)
     remaining = [trial for trial in trials if comparison.trial_key(trial) not in done]

@@ -9,7 +9,7 @@ Shared by ``explore-rl-eval`` (explore_rl/cli.py) and ``benchmarks/study_orderin
 * :func:`run_trial`: a module-level (picklable) job; a failing trial is reported, not raised;
 * :func:`run_trials`: serial (``workers=1``) or spawned worker processes, same results,
   a progress bar over trials;
-* :func:`log_trial` / :func:`finished_trials`: each finished trial appended to a log as it
+* :func:`log_trial` / :func:`finished_trials` / :func:`restart_log`: each finished trial appended to a log as it
   comes (``explore-rl-eval`` keeps :data:`PARTIAL` in its output folder), so a study that is
   stopped or crashes resumes with the trials it still lacks instead of starting over;
 * :func:`summarise`, :func:`markdown_table`, :func:`decision_rows`, :func:`plot_metric`,
@@ -258,6 +258,12 @@ def finished_trials(path: Path) -> dict[tuple[str, int, int], dict]:
             raise ValueError(f"{path}: line {number} is not a trial record; delete the file to start the trials over")
         found[trial_key(run)] = run
     return found
+
+
+def restart_log(path: Path, runs: Iterable[dict]) -> None:
+    """Rewrite the log ``path`` with ``runs`` only (what :func:`finished_trials` kept): a last
+    line cut short by a crash would otherwise run into the next record :func:`log_trial` adds."""
+    Path(path).write_text("".join(json.dumps(run) + "\n" for run in runs))
 
 
 # ---------------------------------------------------------------------- summaries

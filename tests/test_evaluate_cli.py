@@ -178,6 +178,9 @@ def test_finished_trials_read_back_what_log_trial_wrote_and_skip_a_cut_last_line
         handle.write(json.dumps(synthetic_run("em", 1, [0.3]))[:40])
     assert list(comparison.finished_trials(path)) == [("em", 0, 0), ("nearest", 3, 3)]
     assert "cut short" in caplog.text
+    comparison.restart_log(path, comparison.finished_trials(path).values())  # what a resumed run does first
+    comparison.log_trial(path, synthetic_run("em", 1, [0.3]))
+    assert list(comparison.finished_trials(path)) == [("em", 0, 0), ("nearest", 3, 3), ("em", 1, 1)]
     path.write_text("not json\n" + json.dumps(first) + "\n")  # damage before the end is not a crash's
     with pytest.raises(ValueError, match="line 1 is not a trial record"):
         comparison.finished_trials(path)
