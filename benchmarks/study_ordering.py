@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import json
 import sys
 import tempfile
@@ -147,13 +148,8 @@ def main() -> None:
         log.unlink(missing_ok=True)
     done = {(r["scene"], r["policy"], r["trial"]) for r in runs}
     trials = [] if args.summarise_only else make_trials(scenes, seeds, args.frontend, extra, done)
-    with open(log, "a") as handle:
-        def logged(run: dict) -> None:
-            handle.write(json.dumps(run) + "\n")
-            handle.flush()
-
-        runs += comparison.run_trials(trials, args.workers, progress=not args.smoke, on_result=logged,
-                                      desc="ordering runs")
+    runs += comparison.run_trials(trials, args.workers, progress=not args.smoke,
+                                  on_result=functools.partial(comparison.log_trial, log), desc="ordering runs")
     for r in runs:
         print(f"{r['scene']:7s} {r['policy']:8s} seed {r['seed']}: {r['status']:22s} {r.get('travel_m', 0):6.1f} m "
               f"explored {100 * r.get('explored', 0):5.1f} %  map error {r.get('map_error_m', 0):.3f} m  "

@@ -260,10 +260,15 @@ def finished_trials(path: Path) -> dict[tuple[str, int, int], dict]:
     return found
 
 
+def write_trials(path: Path, runs: Iterable[dict]) -> None:
+    """``runs`` to ``path``, one JSON object a line (what :func:`read_trials` reads)."""
+    Path(path).write_text("".join(json.dumps(run) + "\n" for run in runs))
+
+
 def restart_log(path: Path, runs: Iterable[dict]) -> None:
     """Rewrite the log ``path`` with ``runs`` only (what :func:`finished_trials` kept): a last
     line cut short by a crash would otherwise run into the next record :func:`log_trial` adds."""
-    Path(path).write_text("".join(json.dumps(run) + "\n" for run in runs))
+    write_trials(path, runs)
 
 
 # ---------------------------------------------------------------------- summaries
@@ -513,9 +518,7 @@ def write_report(runs: Sequence[dict], out: Path) -> dict[str, list[Path] | Path
     and ``decisions.csv`` (every decision), into ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "trials.jsonl", "w") as handle:
-        for run in runs:
-            handle.write(json.dumps(run) + "\n")
+    write_trials(out / "trials.jsonl", runs)
     return {**write_summary(runs, out), "csv": write_csv(out / "decisions.csv", decision_rows(runs)),
             "trials": out / "trials.jsonl"}
 

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # plan.md, session 67 step 2: EM and the shipped default in the street and the garage for seeds 8-49 (street_garage.sh's
-# config: slam=icp, until 85 % explored or 600 m), in chunks of seeds so that a cut keeps every finished chunk
-# (explore-rl-eval writes a scene's trials.jsonl when all its trials are done): /work/runs/stop85_street_garage50/
-# seeds_FIRST/{0_street,1_garage}; a chunk with both scenes' trials.jsonl is skipped on a restart. Seeds 8-9 repeat
-# stored trials (same_trials.py checks them); SETS=street_garage50 study.sh pools seeds 0-49.
+# config: slam=icp, until 85 % explored or 600 m), in chunks of seeds (written before explore-rl-eval resumed its
+# trials: a cut kept every finished chunk): /work/runs/stop85_street_garage50/seeds_FIRST/{0_street,1_garage}; a chunk
+# with both scenes' trials.jsonl is skipped on a restart. Seeds 8-9 repeat stored trials (checked by
+# decide_time/compare_s59.py: same_trials_street_garage50_s67.log); SETS=street_garage50 study.sh pools seeds 0-49.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 OUT=${OUT:-/work/runs/stop85_street_garage50}
