@@ -149,6 +149,11 @@ def validate(config: Config) -> None:
     checks.non_negative("policy.revisit_bias", config.policy.revisit_bias)
     checks.non_negative("policy.loop_bias", config.policy.loop_bias)
     checks.non_negative("policy.loop_bias_until_m", config.policy.loop_bias_until_m)
+    checks.non_negative("policy.loop_bias_from_m", config.policy.loop_bias_from_m)
+    if 0 < config.policy.loop_bias_until_m <= config.policy.loop_bias_from_m:
+        raise ValueError(f"policy.loop_bias_from_m={config.policy.loop_bias_from_m} must lie below "
+                         f"policy.loop_bias_until_m={config.policy.loop_bias_until_m} (else the loop prior never "
+                         "applies); lower it or set policy.loop_bias_until_m=0")
     checks.non_negative("policy.closure_bias", config.policy.closure_bias)
     checks.at_least("policy.em_top_k", config.policy.em_top_k, 0)
     checks.in_range("policy.em_below_confidence", config.policy.em_below_confidence, 0.0, 1.0)

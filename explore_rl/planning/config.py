@@ -126,6 +126,11 @@ class PolicyConfig:
     travelled less than this many metres (its own odometry) -- the prior in the opening phase of
     an exploration, without its detours later; 0: at every decision.
 
+    ``loop_bias_from_m`` (learned only): if > 0, ``loop_bias`` applies only once the robot has
+    travelled this many metres or more (its own odometry) -- the prior in the late phase, where
+    the closures that set the map error at the stop are made, without its detours while the
+    building is opened; 0: from the start. With ``loop_bias_until_m`` it must lie below it.
+
     ``closure_bias`` (learned only): added to each frontier's logit per metre of relative
     position uncertainty a loop closure on its path would remove (the current keyframe
     against each keyframe it revisits, the largest; ``explore_rl.planning.learned.closure_gains``)
@@ -145,6 +150,7 @@ class PolicyConfig:
     revisit_bias: float = 0.0
     loop_bias: float = 0.0
     loop_bias_until_m: float = 0.0
+    loop_bias_from_m: float = 0.0
     closure_bias: float = 0.0
     em_top_k: int = 0
     em_below_confidence: float = 0.0

@@ -623,18 +623,22 @@ class LearnedPolicy:
             self._em = EMPlanner(self.config, self.planning, robot=self.robot)
         return self._em
 
+    def loop_prior_applies(self, travel: float) -> bool:
+        """Whether ``policy.loop_bias`` applies after ``travel`` metres: from
+        ``loop_bias_from_m`` (0: from the start) to before ``loop_bias_until_m`` (0: no end)."""
+        start, until = float(self.config.loop_bias_from_m), float(self.config.loop_bias_until_m)
+        return travel >= start and not (until > 0 and travel >= until)
+
     def biased(self, logits: torch.Tensor, graph: ExplorationGraph, encoded: EncodedGraph,
                actions: list[Action], state: ExplorationState) -> torch.Tensor:
         """The logits the greedy choice reads: the actor's, plus ``policy.revisit_bias`` per
         keyframe a frontier's path revisits, ``policy.loop_bias`` per metre of its
         ``loop_length`` (priors towards closing loops, long ones for the second; 0: the actor's)
         and ``policy.closure_bias`` per metre of its :func:`closure_gains` (towards closures
-        that remove drift); the second only before ``policy.loop_bias_until_m`` metres of
-        travel, if that is set."""
-        revisit_bias, loop_bias = float(self.config.revisit_bias), float(self.config.loop_bias)
-        closure_bias, until = float(self.config.closure_bias), float(self.config.loop_bias_until_m)
-        if until > 0 and state.travel >= until:
-            loop_bias = 0.0
+        that remove drift); the second only within its travel window, from
+        ``policy.loop_bias_from_m`` to before ``policy.loop_bias_until_m`` metres (each if set)."""
+        revisit_bias, closure_bias = float(self.config.revisit_bias), float(self.config.closure_bias)
+        loop_bias = float(self.config.loop_bias) if self.loop_prior_applies(state.travel) else 0.0
         if revisit_bias:
             logits = logits + revisit_bias * torch.from_numpy(revisit_counts(graph, encoded, actions))
         if loop_bias:

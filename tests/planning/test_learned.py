@@ -167,10 +167,11 @@ def test_a_prior_adds_its_node_feature_to_the_logits(tmp_path, key):
     assert "\n" not in str(error.value)
 
 
-def test_the_loop_prior_stops_after_its_travel(tmp_path):
-    """``policy.loop_bias_until_m``: on a state where the loop prior changes the choice, a gate above the robot's
-    travel so far gives the prior's choice, a gate at it the actor's (its logits kept either way); a negative
-    value is refused in one line naming the key."""
+def test_the_loop_prior_keeps_to_its_travel_window(tmp_path):
+    """``policy.loop_bias_until_m`` and ``loop_bias_from_m``: on a state where the loop prior changes the choice,
+    an end above the robot's travel so far gives the prior's choice, an end at it the actor's (its logits kept
+    either way); a start at it the prior's, a start above it the actor's, a window around it the prior's. A
+    negative value, or a start at or after the end, is refused in one line naming the key."""
     config = load_config([*FAST, "graph.features=extended"])
     path, learner = actor_file(tmp_path, config)
 
@@ -190,10 +191,20 @@ def test_the_loop_prior_stops_after_its_travel(tmp_path):
         assert before.choose(state) == always.last_choice
         assert after.choose(state) == alone.last_choice
         np.testing.assert_array_equal(before.last_logits, alone.last_logits)
+        started = policy(loop_bias=1e6, loop_bias_from_m=state.travel)  # the late-phase gate
+        not_yet = policy(loop_bias=1e6, loop_bias_from_m=state.travel + 0.5)
+        window = policy(loop_bias=1e6, loop_bias_from_m=state.travel - 0.25, loop_bias_until_m=state.travel + 0.25)
+        assert started.choose(state) == always.last_choice
+        assert not_yet.choose(state) == alone.last_choice
+        assert window.choose(state) == always.last_choice
+        np.testing.assert_array_equal(not_yet.last_logits, alone.last_logits)
     assert informative > 0
-    with pytest.raises(ValueError, match="policy.loop_bias_until_m") as error:
-        load_config([*FAST, "policy.loop_bias_until_m=-1"])
-    assert "\n" not in str(error.value)
+    for bad, key in (("policy.loop_bias_until_m=-1", "policy.loop_bias_until_m"),
+                     ("policy.loop_bias_from_m=-1", "policy.loop_bias_from_m"),
+                     ("policy.loop_bias_from_m=200 policy.loop_bias_until_m=150", "policy.loop_bias_from_m")):
+        with pytest.raises(ValueError, match=key) as error:
+            load_config([*FAST, *bad.split()])
+        assert "\n" not in str(error.value)
 
 
 def dense_closure_gain(information: np.ndarray, poses: np.ndarray, current: int, keyframe: int,
