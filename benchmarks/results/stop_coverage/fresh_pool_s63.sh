@@ -6,6 +6,8 @@
 #                  after em_test3 is complete
 #   em_test4       session 65: EM's trials on the next fresh pool 2420-2619 (/work/runs/stop85_test4), reserved for the
 #                  next candidate chosen on validation (policy-independent groundwork)
+#   late150_test4  session 68: the validation choice (the shipped actor, policy.loop_bias=0.04 from 150 m of travel) on
+#                  2420-2619 (/work/runs/stop85_prior_late150_test4), after em_test4 is complete
 #   bash fresh_pool_s63.sh em_test3 default_test3
 # then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
 set -e
@@ -18,4 +20,8 @@ stage_default_test3() {
   stop85 $POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test3 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt"
 }
 stage_em_test4() { stop85 $NEXT_POOL POLICIES=[em] OUT=/work/runs/stop85_test4; }
-run_stages "em_test3 default_test3 em_test4" "$@"
+stage_late150_test4() {
+  stop85 $NEXT_POOL POLICIES=[learned] OUT=/work/runs/stop85_prior_late150_test4 \
+    EXTRA="policy.loop_bias=0.04 policy.loop_bias_from_m=150"
+}
+run_stages "em_test3 default_test3 em_test4 late150_test4" "$@"
