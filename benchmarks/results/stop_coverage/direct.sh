@@ -3,7 +3,8 @@
 # shipped default's trials of the same buildings (runs/val, runs/val2: the same config, graph.max_nodes=4096),
 # paired by building (study_zero_shot.py --reference-policy learned): direct_SET.log, targets_SET_direct; a held-out
 # set (SET ending in _test, session 58) against the default's trials of runs/test. REFS="dagger9k_val90" (session 59):
-# against the trials of that folder instead (the session-58 default's validation runs).
+# against the trials of that folder instead (the session-58 default's validation runs). TAG=_vs_X (session 68): the
+# report goes to direct_SET_vs_X.log / targets_SET_vs_X_direct, so a second reference keeps the first's log.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -19,5 +20,5 @@ for ref in $REFS; do  # one report per reference folder, as study_zero_shot.py p
   done
 done
 $PY $RESULTS/../study_zero_shot.py $(for r in $REFS; do echo $SPLIT/$r; done) --reference $(for r in $REFS; do echo $HERE/runs/$r; done) \
-  --reference-policy learned --pool ${SET}_direct --out $HERE/targets_${SET}_direct > $HERE/direct_$SET.log
+  --reference-policy learned --pool ${SET}${TAG}_direct --out $HERE/targets_${SET}${TAG}_direct > $HERE/direct_$SET$TAG.log
 rm -rf $SPLIT

@@ -45,10 +45,12 @@ def plot(rows: list[dict], slope: float, intercept: float, target: float, out: P
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    for row in rows:
+    colours, markers = plt.get_cmap("tab20").colors, "os^Dv"  # distinct for up to 20 points
+    for index, row in enumerate(rows):
         t, e = row["travel_ratio"], row["error_ratio"]
         ax.errorbar(t, e, xerr=[[t - row["travel_lo"]], [row["travel_hi"] - t]],
-                    yerr=[[e - row["error_lo"]], [row["error_hi"] - e]], fmt="o", capsize=3, label=row["name"])
+                    yerr=[[e - row["error_lo"]], [row["error_hi"] - e]], fmt=markers[index % len(markers)],
+                    color=colours[index % len(colours)], capsize=3, label=row["name"])
     xs = [min(r["travel_lo"] for r in rows) - 0.02, max(r["travel_hi"] for r in rows) + 0.02]
     ax.plot(xs, [slope * x + intercept for x in xs], "k--", lw=1, label="line")
     ax.axvline(target, color="grey", lw=0.8)
