@@ -93,6 +93,28 @@ street_garage50() {
   [ -d $HERE/runs/street_garage50 ] || return 0
   $STUDY $HERE/runs/street_garage50 --out $HERE/targets_street_garage50 > $HERE/study_street_garage50.log
 }
+# street_garage50_variant NAME (session 69): another configuration's learned-only trials of
+# /work/runs/stop85_street_garage_NAME (street_garage.sh with SEED=0 TRIALS=50 and EXTRA), each scene joined with EM's
+# 50 trials of runs/street_garage50 (seeds 0-49, the same config): runs/street_garage50_NAME, study_street_garage50_NAME.log
+# against EM, direct_street_garage50_NAME.log against the shipped default's 50 trials there (paired trial by trial),
+# and study_street_garage50_NAME_first10.log: seeds 0-9 alone (the issue's count; descriptive)
+street_garage50_variant() {
+  local set=street_garage50_$1
+  for name in 0_street 1_garage; do
+    [ -e /work/runs/stop85_street_garage_$1/$name/trials.jsonl ] || continue
+    mkdir -p $HERE/runs/$set/$name $HERE/runs/${set}_first10/$name
+    { cat /work/runs/stop85_street_garage_$1/$name/trials.jsonl
+      grep '"policy": "em"' $HERE/runs/street_garage50/$name/trials.jsonl
+    } > $HERE/runs/$set/$name/trials.jsonl
+    $PY -c 'import json, sys; [print(line, end="") for line in open(sys.argv[1]) if json.loads(line)["seed"] < 10]' \
+      $HERE/runs/$set/$name/trials.jsonl > $HERE/runs/${set}_first10/$name/trials.jsonl
+  done
+  [ -d $HERE/runs/$set ] || return 0
+  $STUDY $HERE/runs/$set --out $HERE/targets_$set > $HERE/study_$set.log
+  $STUDY $HERE/runs/${set}_first10 --out $HERE/targets_${set}_first10 > $HERE/study_${set}_first10.log
+  $STUDY $HERE/runs/$set --reference $HERE/runs/street_garage50 --reference-policy learned --out $HERE/targets_${set}_direct \
+    > $HERE/direct_$set.log
+}
 # baselines_test: nearest frontier's and random's trials of /work/runs/stop85_baselines_test (ship_s58.sh baselines,
 # session 58) with EM's of runs/test and the shipped default's of runs/dagger9k_test, building by building:
 # runs/baselines_test/summary.md, one table of all four policies (explore_rl.comparison.combine)
@@ -127,6 +149,8 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     test2|test3|test4) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
     street_garage) street_garage; continue;;
     street_garage50) street_garage50; continue;;
+    street_garage50_*) street_garage50_variant ${SET#street_garage50_}; continue;;
+    street_garage_late150) continue;;  # 50 trials: the set street_garage50_late150 studies it
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
