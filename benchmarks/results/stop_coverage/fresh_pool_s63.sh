@@ -8,6 +8,8 @@
 #                  next candidate chosen on validation (policy-independent groundwork)
 #   late150_test4  session 68: the validation choice (the shipped actor, policy.loop_bias=0.04 from 150 m of travel) on
 #                  2420-2619 (/work/runs/stop85_prior_late150_test4), after em_test4 is complete
+#   default_test4  session 69: the shipped default (no prior) on 2420-2619 (/work/runs/stop85_dagger9k_test4), paired
+#                  with late150_test4 by building (descriptive: what the prior changes held out)
 #   bash fresh_pool_s63.sh em_test3 default_test3
 # then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
 set -e
@@ -24,4 +26,7 @@ stage_late150_test4() {
   stop85 $NEXT_POOL POLICIES=[learned] OUT=/work/runs/stop85_prior_late150_test4 \
     EXTRA="policy.loop_bias=0.04 policy.loop_bias_from_m=150"
 }
-run_stages "em_test3 default_test3 em_test4 late150_test4" "$@"
+stage_default_test4() {
+  stop85 $NEXT_POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test4 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt"
+}
+run_stages "em_test3 default_test3 em_test4 late150_test4 default_test4" "$@"
