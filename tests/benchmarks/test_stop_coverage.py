@@ -5,8 +5,9 @@ closures per metre and open frontiers in each coverage band, against ratios buil
 distance from the line through two others, by hand. by_kind.py: the per-group geometric means, by hand. divergence.py: the
 first decision where two runs part, and the graph size there, on made-up trials. one_step.py: the pooled gap and the
 episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). late_probe.py:
-fine-tunes on the arm's rows of that dataset only (late rows repeated on request), held-out layouts never. Bad arguments
-refused in one line."""
+fine-tunes on the arm's rows of that dataset only (late rows repeated on request), held-out layouts never. at_travel.py:
+each run's means and ratios at fixed travel distances and at the stop, against values built into made-up trials. Bad
+arguments refused in one line."""
 
 from __future__ import annotations
 
@@ -492,3 +493,54 @@ def test_a_blind_actor_trains_without_its_blind_columns_and_ignores_them(scored_
     code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--blind", "loop_length",
                                          "--out", str(tmp_path / "x.pt")], capsys)
     assert code == 2 and "--blind loop_length" in err.strip().splitlines()[-1]
+
+
+AT_TRAVEL = "benchmarks/results/stop_coverage/at_travel.py"
+
+
+def travelled_trial(policy: str, seed: int, error: float, metres: float, closures_per_m: float = 0.5) -> dict:
+    """A trial of decisions every 10 m up to ``metres``: map error ``error`` and ATE ``2 error`` throughout, explored
+    1 % per metre's tenth (10 m: 0.1), ``closures_per_m`` loop closures per metre."""
+    travel = np.arange(10.0, metres + 1e-9, 10.0)
+    rows = [{"travel_m": float(t), "map_error_m": error, "ate_m": 2 * error, "explored": t / 100.0,
+             "loop_closures": int(round(closures_per_m * t))} for t in travel]
+    return {"policy": policy, "seed": seed, "rows": rows, "map_error_m": error, "ate_m": 2 * error,
+            "explored": float(travel[-1]) / 100.0, "travel_m": float(travel[-1]),
+            "loop_closures": rows[-1]["loop_closures"]}
+
+
+def test_at_travel_recovers_the_ratios_built_into_the_trials(tmp_path, capsys):
+    # EM: map error 0.1 on seeds 0-3 (all 80 m); the other run 0.2 on seeds 0-2 (80 m) and seed 3 stopped at 40 m
+    trials = [travelled_trial("em", seed, 0.1, 80.0) for seed in range(4)]
+    trials += [travelled_trial("learned", seed, 0.2, 80.0, closures_per_m=0.25) for seed in range(3)]
+    trials.append(travelled_trial("learned", 3, 0.2, 40.0, closures_per_m=0.25))
+    path = tmp_path / "trials.jsonl"
+    path.write_text("".join(json.dumps(t) + "\n" for t in trials))
+    code, out, _ = run_main(AT_TRAVEL, [f"em={path}:em", f"mine={path}", "--travel", "25", "60", "--resamples", "50"],
+                            capsys)
+    early, late, stop = [json.loads(line) for line in out.strip().splitlines()]
+    assert code == 0 and early["travel_m"] == 25.0 and late["travel_m"] == 60.0 and stop["travel_m"] == "stop"
+    assert early["mine"]["trials"] == 4 and late["mine"]["trials"] == 3 and late["em"]["trials"] == 4
+    assert early["em"]["map_error_m"] == pytest.approx(0.1) and early["mine"]["ate_m"] == pytest.approx(0.4)
+    assert early["mine"]["explored"] == pytest.approx(0.25)
+    for entry in (early, late, stop):
+        assert entry["mine"]["map_error_m_ratio"]["ratio"] == pytest.approx(2.0)
+        assert entry["mine"]["ate_m_ratio"]["ci95"] == pytest.approx([2.0, 2.0])
+    assert late["mine"]["map_error_m_ratio"]["seeds"] == 3 and stop["mine"]["map_error_m_ratio"]["seeds"] == 4
+    assert late["mine"]["closures_per_m_ratio"]["ratio"] == pytest.approx(0.5, abs=0.02)
+    assert stop["mine"]["explored_ratio"]["ratio"] == pytest.approx((3 * 0.8 + 0.4) / 4 / 0.8)
+
+
+def test_at_travel_refuses_bad_arguments_in_one_line(tmp_path, capsys):
+    path = tmp_path / "trials.jsonl"
+    path.write_text("".join(json.dumps(travelled_trial("em", s, 0.1, 30.0)) + "\n" for s in range(2)))
+    for args, message in (([f"em={path}:em"], "at least two runs"),
+                          ([f"em={path}:em", str(path)], "give NAME=FILE[:POLICY]"),
+                          ([f"em={path}:em", f"x={tmp_path / 'none.jsonl'}"], "is no file"),
+                          ([f"em={path}:em", f"x={path}"], "holds 0 trials of policy 'learned'"),
+                          ([f"em={path}:em", f"x={path}:em", "--travel", "50", "20"], "positive, increasing"),
+                          ([f"em={path}:em", f"em={path}:em"], "share a NAME")):
+        code, _, err = run_main(AT_TRAVEL, args, capsys)
+        errors = [line for line in err.splitlines() if "error:" in line]  # after argparse's usage lines
+        assert code == 2 and len(errors) == 1 and message in errors[0], (args, err)
+
