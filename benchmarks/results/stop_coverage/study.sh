@@ -21,6 +21,7 @@
 # Session 65's next fresh pool 2420-2619: runs/test4 (EM, /work/runs/stop85_test4) and a variant's X_test4 (joined with
 # runs/test4's EM like the _test3 sets), for the next candidate chosen on validation.
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
+# Session 69's garage-like validation pool lots_val (lots_s69.sh: sparse-lot buildings, EM and the default in one run).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -155,7 +156,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
-    val|val2|test) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
+    val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
          "blind, gate or icp (its trials are joined with EM's)" >&2; exit 2;;
   esac

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# plan.md, session 69 step 6: a garage-like validation pool: the sparse-lot buildings of selection_v6 (validation seeds,
+# never trained or tested on) with the stop-85 config, EM and the shipped default in one run per building (resumable:
+# finished buildings are skipped): /work/runs/stop85_lots_val/building_SEED; SETS=lots_val study.sh keeps them in
+# runs/lots_val (study_lots_val.log, by_coverage_lots_val.log, phases_lots_val.log).
+#   bash lots_s69.sh            seeds 1010-1039
+#   FIRST=1040 LAST=1069 bash lots_s69.sh   more of them
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+source $HERE/../keep.sh
+LOTS="scene.building.lot_probability=1 scene.building.size_min=28 scene.building.size_max=35 \
+scene.building.lot_lane_width=[6.5,7.0] scene.building.lot_car_pitch=[6.0,6.5] scene.building.lot_gap_probability=0.5"
+stop85 FIRST=${FIRST:-1010} LAST=${LAST:-1039} POLICIES=[learned,em] OUT=/work/runs/stop85_lots_val EXTRA="$LOTS"
