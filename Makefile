@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -e ".[dev]"
 	touch $(STAMP)
 
-# zero-shot: the shipped office policy against EM and nearest frontier on `street` (real
+# zero-shot: the shipped policy against EM and nearest frontier on `street` (real
 # kiss-icp + GTSAM front end), 2 trials each, 150 m travel budget; prints the table, writes plots
 demo: $(STAMP)
 	$(VENV)/bin/explore-rl-eval scene=street "evaluate.policies=[learned,em,nearest]" evaluate.trials=2 \

@@ -16,6 +16,10 @@ exploration state with plain arrays, get back the frontier to visit next::
         nearest=0,                         # which frontier has the shortest path
     )                                      # -> index into frontiers
 
+``loop_bias=0.04`` (keyword) adds the decision-time loop prior of ``policy.loop_bias`` (per metre of
+each frontier's ``loop_length``, computed from ``pose_edges`` and the revisits); the caller keeps it
+to its travel window, e.g. from 150 m of odometry on (``policy.loop_bias_from_m=150``: an option,
+not the shipped default; benchmarks/RESULTS.md "Session 69").
 Traces may be passed instead of covariances (``pose_uncertainty``, ``frontier_uncertainty``). A policy of
 ``graph.features=no_covariance`` reads none of them (pass neither): it needs no marginals at all.
 The current pose is the newest keyframe unless ``current`` says otherwise. The graph is
@@ -32,6 +36,7 @@ file of a training checkpoint (and optionally its ``torch.export`` program).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +45,7 @@ from typing import Callable, Sequence
 import numpy as np
 import torch
 
-from explore_rl.graph.encode import EncodedGraph, encode
+from explore_rl.graph.encode import EncodedGraph, encode, loop_length_rows
 from explore_rl.graph.exploration_graph import ExplorationGraph, build_graph, select_features
 from explore_rl.graph.features import (
     COVARIANCE_FEATURES,
@@ -172,13 +177,22 @@ class DeployedPolicy:
         full[:, [FRONTIER_EXTRAS.index(name) for name in columns]] = extra
         return full
 
-    def decide(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> FrontierChoice:
-        """The most probable frontier (greedy) and the policy's distribution."""
+    def decide(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, *, loop_bias: float = 0.0,
+               **kwargs) -> FrontierChoice:
+        """The most probable frontier (greedy) and the policy's distribution. ``loop_bias``: the
+        decision-time loop prior of ``policy.loop_bias``, added to each frontier's logit per metre
+        of its ``loop_length`` (computed from ``pose_edges`` and the revisits); the caller keeps
+        it to its travel window (``policy.loop_bias_from_m``, ``loop_bias_until_m``), e.g. 0.04
+        once the robot has driven 150 m (benchmarks/RESULTS.md "Session 69"); 0: the actor alone."""
+        if not (math.isfinite(loop_bias) and loop_bias >= 0):
+            raise ValueError(f"loop_bias={loop_bias} must be finite and >= 0 (0: the actor alone)")
         graph = self.graph(pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs)
         encoded = encode(graph, max(self.max_nodes, graph.frontier_nodes.size + 1))
         n = int(encoded.node_mask.sum())  # real rows come first; padding changes nothing
         logits = self.logits(torch.from_numpy(encoded.x[:n]), torch.from_numpy(encoded.adj[:n, :n]),
                              torch.from_numpy(encoded.node_mask[:n]))
+        if loop_bias:
+            logits = logits + loop_bias * torch.from_numpy(loop_length_rows(graph, encoded)[:n])
         rows = np.flatnonzero(encoded.action_mask[:n])
         action_logits = logits[torch.from_numpy(rows)].double()
         probabilities_rows = torch.softmax(action_logits, 0).numpy()
@@ -191,7 +205,7 @@ class DeployedPolicy:
     def choose(self, pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs) -> int:
         """Index into ``frontier_xy`` of the frontier to visit next (keyword arguments as
         :meth:`graph`: ``pose_cov``/``pose_uncertainty``, ``frontier_cov``/
-        ``frontier_uncertainty``, ``nearest``, ``current``)."""
+        ``frontier_uncertainty``, ``nearest``, ``current``; and :meth:`decide`'s ``loop_bias``)."""
         return self.decide(pose_xy, pose_edges, frontier_xy, frontier_revisits, **kwargs).frontier
 
 

@@ -16,6 +16,8 @@ from explore_rl.deploy import load_policy, main
 from explore_rl.graph.exploration_graph import factor_edges
 from explore_rl.planning.em import world_covariances
 from explore_rl.models.checkpoint import CheckpointError
+from explore_rl.planning.learned import LearnedPolicy
+from explore_rl.planning.policies import PolicyConfig
 from tests.policy_files import TINY_MODEL, actor_file, env_decisions
 
 FAST = ["scene=office", "slam=model", "planning.actions.max_frontiers=4", *TINY_MODEL]
@@ -134,6 +136,31 @@ def test_an_extended_feature_policy_takes_frontier_extra_and_matches_the_env(tmp
             policy.decide(**arrays)
         with pytest.raises(ValueError, match=r"frontier_extra must be finite, shape"):
             policy.decide(**arrays, frontier_extra=extra[:, :3])
+
+
+def test_the_loop_prior_makes_the_env_policys_choice(tmp_path):
+    """``decide(loop_bias=B)``: on the env's states, deploy makes the choice of the env's
+    ``LearnedPolicy`` with ``policy.loop_bias=B`` (its prior computed from the env's pose graph,
+    deploy's from the arrays), at a weight where the prior dominates and at the shipped option's;
+    the prior changes the choice on some states; a negative or non-finite weight is refused."""
+    config = load_config([*FAST, "graph.features=extended"])
+    path, learner = actor_file(tmp_path, config)
+    policy = load_policy(path, max_nodes=config.graph.max_nodes)
+    informative = 0  # states where the dominant prior changes the choice
+    for decision, _ in env_decisions(config, learner, steps=6):
+        arrays = arrays_of(decision)
+        arrays["frontier_extra"] = decision.graph.features[decision.graph.frontier_nodes, 4:10]
+        for bias in (0.04, 1e6):
+            env_policy = LearnedPolicy(PolicyConfig("learned", checkpoint=str(path), loop_bias=bias),
+                                       config.planning, graph=config.graph)
+            made = policy.decide(**arrays, loop_bias=bias)
+            assert decision.actions[made.frontier].candidate == env_policy.choose(decision.state)
+            assert made.probabilities.sum() == pytest.approx(1.0)
+        informative += made.frontier != policy.choose(**arrays)
+        for bad in (-0.5, float("nan")):
+            with pytest.raises(ValueError, match="loop_bias=.* must be finite and >= 0"):
+                policy.decide(**arrays, loop_bias=bad)
+    assert informative > 0
 
 
 def test_a_paper_feature_policy_refuses_frontier_extra(files):

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from explore_rl.graph.exploration_graph import ExplorationGraph
+from explore_rl.graph.features import loop_lengths
 
 log = logging.getLogger(__name__)
 
@@ -123,3 +124,16 @@ def nonzero_entries(adj: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray
     rows, cols = np.divmod(keys, adj.shape[1])
     nonzero = adj[rows, cols] != 0
     return np.stack([rows[nonzero], cols[nonzero]], axis=1)
+
+
+def loop_length_rows(graph: ExplorationGraph, encoded: EncodedGraph) -> np.ndarray:
+    """``(N,)``: each encoded frontier row's ``loop_length`` (the pose-graph distance from the
+    current keyframe to the farthest keyframe its path revisits; the ``loops`` node feature,
+    computed here whatever the actor reads): what the loop prior (``policy.loop_bias``, and
+    ``loop_bias`` of :meth:`explore_rl.deploy.DeployedPolicy.decide`) adds per metre. 0 on pose
+    and padding rows."""
+    rows = np.flatnonzero(encoded.action_mask)
+    n_poses = int((graph.keyframe >= 0).sum())
+    values = np.zeros(len(encoded.action_mask), dtype=np.float32)
+    values[rows] = loop_lengths(n_poses, graph.edges, graph.weights, graph.current, encoded.nodes[rows])
+    return values

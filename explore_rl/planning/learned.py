@@ -45,7 +45,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from explore_rl.graph.config import GraphConfig
-from explore_rl.graph.encode import EncodedGraph, encode
+from explore_rl.graph.encode import EncodedGraph, encode, loop_length_rows
 from explore_rl.graph.exploration_graph import (
     ExplorationGraph,
     action_frontiers,
@@ -57,7 +57,6 @@ from explore_rl.graph.features import (
     frontier_extras,
     has_frontier_extras,
     has_loop_length,
-    loop_lengths,
     reads_covariances,
 )
 from explore_rl.grid import GridSpec
@@ -337,17 +336,6 @@ def revisit_counts(graph: ExplorationGraph, encoded: EncodedGraph, actions: list
     """``(N,)``: keyframes the path of each encoded frontier row revisits (its predicted loop
     closures, the ``revisits`` node feature of the extended set); 0 on pose and padding rows."""
     return action_rows(np.array([len(action.prediction.revisits) for action in actions]), actions, graph, encoded)
-
-
-def loop_length_rows(graph: ExplorationGraph, encoded: EncodedGraph) -> np.ndarray:
-    """``(N,)``: each encoded frontier row's ``loop_length`` (the pose-graph distance from the
-    current keyframe to the farthest keyframe its path revisits; the ``loops`` node feature,
-    computed here whatever the actor reads); 0 on pose and padding rows."""
-    rows = np.flatnonzero(encoded.action_mask)
-    n_poses = int((graph.keyframe >= 0).sum())
-    values = np.zeros(len(encoded.action_mask), dtype=np.float32)
-    values[rows] = loop_lengths(n_poses, graph.edges, graph.weights, graph.current, encoded.nodes[rows])
-    return values
 
 
 def closure_gains(graph: PoseGraph, poses: np.ndarray, actions: list[Action], loop_sigma: float) -> np.ndarray:

@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from explore_rl.config import load_config
+from explore_rl.graph.encode import loop_length_rows
 from explore_rl.graph.features import feature_names
 from explore_rl.planning.em import EMPlanner, make_decision_context, pose_covariances
 from explore_rl.planning.learned import (
@@ -23,7 +24,6 @@ from explore_rl.planning.learned import (
     landmark_covariances,
     landmarks_near,
     landmarks_near_reference,
-    loop_length_rows,
     pairs_in_range,
     pairs_in_range_reference,
     pose_marginals,

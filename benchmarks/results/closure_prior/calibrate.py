@@ -32,7 +32,8 @@ def building_columns(task: tuple[int, int, list[str]]) -> dict:
     import torch
 
     from explore_rl.config import load_config
-    from explore_rl.planning.learned import closure_gain_rows, loop_length_rows
+    from explore_rl.graph.encode import loop_length_rows
+    from explore_rl.planning.learned import closure_gain_rows
     from explore_rl.runner import Explorer
 
     torch.set_num_threads(1)
