@@ -5,9 +5,12 @@
 # runs/lots_val (study_lots_val.log, by_coverage_lots_val.log, phases_lots_val.log).
 #   bash lots_s69.sh            seeds 1010-1039
 #   FIRST=1040 LAST=1069 bash lots_s69.sh   more of them
+# Step 7: GAP=g (lot_gap_probability, default 0.5) POLICIES=[em] OUT=DIR: other lots, e.g. denser rows where icp may
+# hold as in the garage (EM's map error first).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 LOTS="scene.building.lot_probability=1 scene.building.size_min=28 scene.building.size_max=35 \
-scene.building.lot_lane_width=[6.5,7.0] scene.building.lot_car_pitch=[6.0,6.5] scene.building.lot_gap_probability=0.5"
-stop85 FIRST=${FIRST:-1010} LAST=${LAST:-1039} POLICIES=[learned,em] OUT=/work/runs/stop85_lots_val EXTRA="$LOTS"
+scene.building.lot_lane_width=[6.5,7.0] scene.building.lot_car_pitch=[6.0,6.5] scene.building.lot_gap_probability=${GAP:-0.5}"
+stop85 FIRST=${FIRST:-1010} LAST=${LAST:-1039} POLICIES=${POLICIES:-[learned,em]} OUT=${OUT:-/work/runs/stop85_lots_val} \
+  EXTRA="$LOTS"
