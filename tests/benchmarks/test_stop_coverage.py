@@ -6,8 +6,8 @@ distance from the line through two others, by hand. by_kind.py: the per-group ge
 first decision where two runs part, and the graph size there, on made-up trials. one_step.py: the pooled gap and the
 episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). late_probe.py:
 fine-tunes on the arm's rows of that dataset only (late rows repeated on request), held-out layouts never. at_travel.py:
-each run's means and ratios at fixed travel distances and at the stop, against values built into made-up trials. Bad
-arguments refused in one line."""
+each run's means and ratios at fixed travel distances and at the stop, against values built into made-up trials.
+lots_em.py: EM's means and medians over made-up buildings. Bad arguments refused in one line."""
 
 from __future__ import annotations
 
@@ -543,4 +543,23 @@ def test_at_travel_refuses_bad_arguments_in_one_line(tmp_path, capsys):
         code, _, err = run_main(AT_TRAVEL, args, capsys)
         errors = [line for line in err.splitlines() if "error:" in line]  # after argparse's usage lines
         assert code == 2 and len(errors) == 1 and message in errors[0], (args, err)
+
+
+LOTS_EM = "benchmarks/results/stop_coverage/lots_em.py"
+
+
+def test_lots_em_summarises_ems_trial_of_each_building(tmp_path, capsys):
+    for seed, error in ((1, 0.1), (2, 0.3), (3, 0.8)):
+        folder = tmp_path / f"building_{seed}"
+        folder.mkdir()
+        trials = [{"policy": policy, "map_error_m": value, "ate_m": 2 * value, "travel_m": 100.0, "explored": 0.85,
+                   "loop_closures": seed} for policy, value in (("em", error), ("learned", 9.0))]
+        folder.joinpath("trials.jsonl").write_text("".join(json.dumps(t) + "\n" for t in trials))
+    code, out, _ = run_main(LOTS_EM, [str(tmp_path)], capsys)
+    summary = json.loads(out)
+    assert code == 0 and summary["buildings"] == 3
+    assert summary["map_error_m"] == {"mean": 0.4, "median": 0.3} and summary["ate_m"]["median"] == 0.6
+    assert summary["per_building"]["building_3"]["loop_closures"] == 3.0
+    code, _, err = run_main(LOTS_EM, [str(tmp_path / "none")], capsys)
+    assert code == 2 and "no building_SEED/trials.jsonl with a 'em' trial" in err
 
