@@ -25,24 +25,26 @@ import numpy as np
 from explore_rl.comparison import read_trials
 from explore_rl.intervals import percentile_levels
 
-QUANTITIES = ("map_error_m", "ate_m", "explored", "closures_per_m")
+MEASURED = ("map_error_m", "ate_m", "explored")  # logged per decision and per trial
+QUANTITIES = (*MEASURED, "closures_per_m")
 RESAMPLES = 2000
 
 
 def value_at(trial: dict, travel: float) -> dict | None:
-    """One trial's quantities after ``travel`` metres (interpolated between decisions); None if it stopped before."""
+    """One trial's quantities after ``travel`` metres (interpolated between decisions); None if it stopped before.
+    The trial has decisions (:func:`read_run` keeps only those)."""
     rows = trial["rows"]
     metres = np.array([row["travel_m"] for row in rows])
-    if len(rows) == 0 or metres[-1] < travel:
+    if metres[-1] < travel:
         return None
-    values = {key: float(np.interp(travel, metres, [row[key] for row in rows])) for key in QUANTITIES[:3]}
+    values = {key: float(np.interp(travel, metres, [row[key] for row in rows])) for key in MEASURED}
     closures = float(np.interp(travel, metres, [row["loop_closures"] for row in rows]))
     return {**values, "closures_per_m": closures / travel}
 
 
 def value_at_stop(trial: dict) -> dict:
     """One trial's final quantities."""
-    return {**{key: float(trial[key]) for key in QUANTITIES[:3]},
+    return {**{key: float(trial[key]) for key in MEASURED},
             "closures_per_m": trial["loop_closures"] / trial["travel_m"] if trial["travel_m"] > 0 else float("nan")}
 
 
