@@ -7,7 +7,8 @@ first decision where two runs part, and the graph size there, on made-up trials.
 episode index by hand, and an actor scored on a made-up dataset (EM's stored choice closes the whole gap). late_probe.py:
 fine-tunes on the arm's rows of that dataset only (late rows repeated on request), held-out layouts never. at_travel.py:
 each run's means and ratios at fixed travel distances and at the stop, against values built into made-up trials.
-lots_em.py: EM's means and medians over made-up buildings. Bad arguments refused in one line."""
+lots_em.py: EM's means and medians over made-up buildings. lot_blind.py: the blind floor of an empty box against
+its area by hand, and the garage against sparse lots. Bad arguments refused in one line."""
 
 from __future__ import annotations
 
@@ -563,3 +564,27 @@ def test_lots_em_summarises_ems_trial_of_each_building(tmp_path, capsys):
     code, _, err = run_main(LOTS_EM, [str(tmp_path / "none")], capsys)
     assert code == 2 and "no building_SEED/trials.jsonl with a 'em' trial" in err
 
+
+
+LOT_BLIND = "benchmarks/results/stop_coverage/lot_blind.py"
+
+
+def test_lot_blind_floor_of_an_empty_box_is_its_inner_square():
+    from explore_rl.scene.layout import Layout
+
+    script = load_script(LOT_BLIND)
+    stats = script.floor_stats(Layout("box", (10.0, 10.0)), robot_radius=0.3, blind=2.5)
+    # floor: cells farther than 0.3 m from the walls (a 9.4 m square); blind: farther than 2.5 m (a 5 m square)
+    assert stats["cars"] == 0 and abs(stats["blind"] - 5.0 ** 2 / 9.4 ** 2) < 0.03
+
+
+def test_lot_blind_ranks_the_garage_below_sparse_lots(capsys):
+    sparse = "sparse=size_min=28 size_max=30 lot_lane_width=[6.5,7.0] lot_car_pitch=[6.0,6.5] lot_gap_probability=0.5"
+    code, out, _ = run_main(LOT_BLIND, ["--seeds", "1050", "1050", "--lots", sparse], capsys)
+    rows = {row["scene"]: row for row in json_lines(out)}
+    assert code == 0 and rows["garage"]["cars"] == 15 and rows["sparse"]["layouts"] == 1
+    assert 0 < rows["garage"]["blind"] < rows["sparse"]["blind"] < 1
+    for args, message in ((["--seeds", "5", "4"], "FIRST must be <= LAST"), (["--lots", "x"], "give NAME=key=value"),
+                          (["--garage-seeds", "0"], "give at least 1")):
+        code, _, err = run_main(LOT_BLIND, args, capsys)
+        assert code != 0 and message in err, (args, err)
