@@ -22,6 +22,8 @@
 # runs/test4's EM like the _test3 sets), for the next candidate chosen on validation.
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 # Session 69's garage-like validation pool lots_val (lots_s69.sh: sparse-lot buildings, EM and the default in one run).
+# Session 70's garage-like lots glots_val (plan.md session 70 step 2b): the default's trials of
+# /work/runs/stop85_glots_learned joined with EM's of /work/runs/stop85_glots_em, building by building.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -41,6 +43,17 @@ join_prior() {
         grep '"policy": "em"' $HERE/runs/$em/$b/trials.jsonl >> $HERE/runs/$1/$b/trials.jsonl
       fi
     done
+  done
+}
+# join_lots SET: the default's trials of /work/runs/stop85_SET_learned (SET without its _val) joined with EM's of
+# /work/runs/stop85_SET_em, each building both finished (session 70's garage-like lots: SET glots_val)
+join_lots() {
+  local kind=${1%_val}
+  for d in /work/runs/stop85_${kind}_learned/building_*/; do
+    b=$(basename $d)
+    [ -e $d/trials.jsonl ] && [ -e /work/runs/stop85_${kind}_em/$b/trials.jsonl ] || continue
+    mkdir -p $HERE/runs/$1/$b && cp $d/summary.md $HERE/runs/$1/$b/
+    cat $d/trials.jsonl /work/runs/stop85_${kind}_em/$b/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
   done
 }
 # street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), EM and the learned policy compared
@@ -156,6 +169,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
+    glots_val) join_lots $SET;;
     val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
          "blind, gate or icp (its trials are joined with EM's)" >&2; exit 2;;
