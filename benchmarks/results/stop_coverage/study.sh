@@ -23,7 +23,8 @@
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 # Session 69's garage-like validation pool lots_val (lots_s69.sh: sparse-lot buildings, EM and the default in one run).
 # Session 70's garage-like lots glots_val (plan.md session 70 step 2b): the default's trials of
-# /work/runs/stop85_glots_learned joined with EM's of /work/runs/stop85_glots_em, building by building.
+# /work/runs/stop85_glots_learned joined with EM's of /work/runs/stop85_glots_em, building by building; glotsX_val:
+# a configuration's trials of /work/runs/stop85_glotsX_learned (step 4) joined the same way.
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -45,15 +46,16 @@ join_prior() {
     done
   done
 }
-# join_lots SET: the default's trials of /work/runs/stop85_SET_learned (SET without its _val) joined with EM's of
-# /work/runs/stop85_SET_em, each building both finished (session 70's garage-like lots: SET glots_val)
+# join_lots SET: a policy's trials of /work/runs/stop85_KIND_learned (KIND: SET without its _val) joined with EM's
+# of /work/runs/stop85_glots_em, each building both finished (session 70's garage-like lots: SET glots_val for the
+# shipped default, glotsC1_val for a configuration of it; REFS=glots_val bash direct.sh glotsC1_val pairs the two)
 join_lots() {
-  local kind=${1%_val}
+  local kind=${1%_val} em=/work/runs/stop85_glots_em
   for d in /work/runs/stop85_${kind}_learned/building_*/; do
     b=$(basename $d)
-    [ -e $d/trials.jsonl ] && [ -e /work/runs/stop85_${kind}_em/$b/trials.jsonl ] || continue
+    [ -e $d/trials.jsonl ] && [ -e $em/$b/trials.jsonl ] || continue
     mkdir -p $HERE/runs/$1/$b && cp $d/summary.md $HERE/runs/$1/$b/
-    cat $d/trials.jsonl /work/runs/stop85_${kind}_em/$b/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
+    cat $d/trials.jsonl $em/$b/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
   done
 }
 # street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), EM and the learned policy compared
@@ -169,7 +171,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
-    glots_val) join_lots $SET;;
+    glots*_val) join_lots $SET;;
     val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
          "blind, gate or icp (its trials are joined with EM's)" >&2; exit 2;;
