@@ -8,7 +8,8 @@
 # Step 7: GAP=g (lot_gap_probability, default 0.5) POLICIES=[em] OUT=DIR: other lots, e.g. denser rows where icp may
 # hold as in the garage (EM's map error first).
 # Session 70: SIZE=[min,max] LANE=[min,max] PITCH=[min,max] (scene.building.size_min/max, lot_lane_width,
-# lot_car_pitch; defaults the session-69 pool's), e.g. the garage-like lots of plan.md session 70 step 2.
+# lot_car_pitch; defaults the session-69 pool's), e.g. the garage-like lots of plan.md session 70 step 2;
+# EXTRA="key=value ...": more overrides after the lot's (e.g. a decision-time prior, step 4).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -17,4 +18,4 @@ LOTS="scene.building.lot_probability=1 scene.building.size_min=${SIZE%,*} scene.
 scene.building.lot_lane_width=${LANE:-[6.5,7.0]} scene.building.lot_car_pitch=${PITCH:-[6.0,6.5]} \
 scene.building.lot_gap_probability=${GAP:-0.5}"
 stop85 FIRST=${FIRST:-1010} LAST=${LAST:-1039} POLICIES=${POLICIES:-[learned,em]} OUT=${OUT:-/work/runs/stop85_lots_val} \
-  EXTRA="$LOTS"
+  EXTRA="$LOTS ${EXTRA:-}"
