@@ -24,7 +24,8 @@
 # Session 69's garage-like validation pool lots_val (lots_s69.sh: sparse-lot buildings, EM and the default in one run).
 # Session 70's garage-like lots glots_val (plan.md session 70 step 2b): the default's trials of
 # /work/runs/stop85_glots_learned joined with EM's of /work/runs/stop85_glots_em, building by building; glotsX_val:
-# a configuration's trials of /work/runs/stop85_glotsX_learned (step 4) joined the same way.
+# a configuration's trials of /work/runs/stop85_glotsX_learned (step 4) joined the same way; glots_rep: the default's
+# replication on 1080-1109 (step 5, not pooled with glots_val).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -46,16 +47,17 @@ join_prior() {
     done
   done
 }
-# join_lots SET: a policy's trials of /work/runs/stop85_KIND_learned (KIND: SET without its _val) joined with EM's
-# of /work/runs/stop85_glots_em, each building both finished (session 70's garage-like lots: SET glots_val for the
-# shipped default, glotsC1_val for a configuration of it; REFS=glots_val bash direct.sh glotsC1_val pairs the two)
+# join_lots SET KIND FIRST LAST: a policy's trials of /work/runs/stop85_KIND_learned on buildings FIRST-LAST joined
+# with EM's of /work/runs/stop85_glots_em, each building both finished (session 70's garage-like lots: SET glots_val
+# for the shipped default on 1050-1079, glotsX_val for a configuration X of it there (REFS=glots_val bash direct.sh
+# glotsX_val pairs the two), glots_rep for the default's replication on 1080-1109)
 join_lots() {
-  local kind=${1%_val} em=/work/runs/stop85_glots_em
-  for d in /work/runs/stop85_${kind}_learned/building_*/; do
-    b=$(basename $d)
-    [ -e $d/trials.jsonl ] && [ -e $em/$b/trials.jsonl ] || continue
-    mkdir -p $HERE/runs/$1/$b && cp $d/summary.md $HERE/runs/$1/$b/
-    cat $d/trials.jsonl $em/$b/trials.jsonl > $HERE/runs/$1/$b/trials.jsonl
+  local em=/work/runs/stop85_glots_em
+  for seed in $(seq $3 $4); do
+    local d=/work/runs/stop85_$2_learned/building_$seed
+    [ -e $d/trials.jsonl ] && [ -e $em/building_$seed/trials.jsonl ] || continue
+    mkdir -p $HERE/runs/$1/building_$seed && cp $d/summary.md $HERE/runs/$1/building_$seed/
+    cat $d/trials.jsonl $em/building_$seed/trials.jsonl > $HERE/runs/$1/building_$seed/trials.jsonl
   done
 }
 # street_garage: street_garage.sh's scenes (one folder each, 10 trials per policy), EM and the learned policy compared
@@ -171,7 +173,8 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
-    glots*_val) join_lots $SET;;
+    glots_rep) join_lots $SET glots 1080 1109;;
+    glots*_val) join_lots $SET ${SET%_val} 1050 1079;;
     val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
          "blind, gate or icp (its trials are joined with EM's)" >&2; exit 2;;
