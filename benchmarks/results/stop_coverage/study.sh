@@ -112,16 +112,18 @@ street_garage50() {
   $STUDY $HERE/runs/street_garage50 --out $HERE/targets_street_garage50 > $HERE/study_street_garage50.log
 }
 # street_garage50_variant NAME (session 69): another configuration's learned-only trials of
-# /work/runs/stop85_street_garage_NAME (street_garage.sh with SEED=0 TRIALS=50 and EXTRA), each scene joined with EM's
+# /work/runs/stop85_street_garage_NAME (street_garage.sh with SEED=0 TRIALS=50 and EXTRA; SCENES=garage: one scene), each scene joined with EM's
 # 50 trials of runs/street_garage50 (seeds 0-49, the same config): runs/street_garage50_NAME, study_street_garage50_NAME.log
 # against EM, direct_street_garage50_NAME.log against the shipped default's 50 trials there (paired trial by trial),
 # and study_street_garage50_NAME_first10.log: seeds 0-9 alone (the count; descriptive)
 street_garage50_variant() {
   local set=street_garage50_$1
   for name in 0_street 1_garage; do
-    [ -e /work/runs/stop85_street_garage_$1/$name/trials.jsonl ] || continue
+    # the run's folder of this scene: N_street / N_garage (N is the sweep's job number: 0 when one scene ran alone)
+    local src=$(ls -d /work/runs/stop85_street_garage_$1/*_${name#*_} 2>/dev/null | head -1)
+    [ -n "$src" ] && [ -e $src/trials.jsonl ] || continue
     mkdir -p $HERE/runs/$set/$name $HERE/runs/${set}_first10/$name
-    { cat /work/runs/stop85_street_garage_$1/$name/trials.jsonl
+    { cat $src/trials.jsonl
       grep '"policy": "em"' $HERE/runs/street_garage50/$name/trials.jsonl
     } > $HERE/runs/$set/$name/trials.jsonl
     $PY -c 'import json, sys; [print(line, end="") for line in open(sys.argv[1]) if json.loads(line)["seed"] < 10]' \
