@@ -171,6 +171,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     street_garage50) street_garage50; continue;;
     street_garage50_*) street_garage50_variant ${SET#street_garage50_}; continue;;
     street_garage_late150) continue;;  # 50 trials: the set street_garage50_late150 studies it
+    street_garage_prior004) continue;;  # 50 garage trials (session 70): the set street_garage50_prior004 studies it
     street_garage_baselines) continue;;
     baselines_test) baselines_test; continue;;  # step D's nearest and random: part of street_garage's table
     street_garage_*) street_garage_variant $SET; continue;;
