@@ -25,7 +25,8 @@
 # Session 70's garage-like lots glots_val (plan.md session 70 step 2b): the default's trials of
 # /work/runs/stop85_glots_learned joined with EM's of /work/runs/stop85_glots_em, building by building; glotsX_val:
 # a configuration's trials of /work/runs/stop85_glotsX_learned (step 4) joined the same way; glots_rep: the default's
-# replication on 1080-1109 (step 5, not pooled with glots_val).
+# replication on 1080-1109 (step 5, not pooled with glots_val); glots_em: EM's trials of every garage-like lot, kept in
+# runs/glots_em (the EM side of those sets, so they can be re-joined on a new machine).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -48,11 +49,13 @@ join_prior() {
   done
 }
 # join_lots SET KIND FIRST LAST: a policy's trials of /work/runs/stop85_KIND_learned on buildings FIRST-LAST joined
-# with EM's of /work/runs/stop85_glots_em, each building both finished (session 70's garage-like lots: SET glots_val
+# with EM's of runs/glots_em (kept from /work/runs/stop85_glots_em first: on a new machine the kept ones), each
+# building both finished (session 70's garage-like lots: SET glots_val
 # for the shipped default on 1050-1079, glotsX_val for a configuration X of it there (REFS=glots_val bash direct.sh
 # glotsX_val pairs the two), glots_rep for the default's replication on 1080-1109)
 join_lots() {
-  local em=/work/runs/stop85_glots_em
+  local em=$HERE/runs/glots_em
+  keep /work/runs/stop85_glots_em $em
   for seed in $(seq $3 $4); do
     local d=/work/runs/stop85_$2_learned/building_$seed
     [ -e $d/trials.jsonl ] && [ -e $em/building_$seed/trials.jsonl ] || continue
@@ -177,6 +180,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
     glots_rep) join_lots $SET glots 1080 1109;;
+    glots_em) keep /work/runs/stop85_glots_em $HERE/runs/glots_em; continue;;  # EM's trials of every garage-like lot
     glots*_val) join_lots $SET ${SET%_val} 1050 1079;;
     val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
