@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 import numpy as np
 
@@ -72,7 +71,6 @@ def main(argv: list[str] | None = None) -> None:
         rows = [floor_stats(layout, radius, args.blind) for layout in layouts]
         print(json.dumps({"scene": name, "layouts": len(rows), "blind_m": args.blind,
                           **{k: round(float(np.mean([r[k] for r in rows])), 3) for k in rows[0]}}))
-    sys.stdout.flush()
 
 
 if __name__ == "__main__":

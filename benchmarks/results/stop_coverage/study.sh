@@ -48,14 +48,16 @@ join_prior() {
     done
   done
 }
+# keep_lots_em: EM's trials of every garage-like lot (/work/runs/stop85_glots_em) kept in runs/glots_em; on a new
+# machine the kept ones stay
+keep_lots_em() { keep /work/runs/stop85_glots_em $HERE/runs/glots_em; }
 # join_lots SET KIND FIRST LAST: a policy's trials of /work/runs/stop85_KIND_learned on buildings FIRST-LAST joined
-# with EM's of runs/glots_em (kept from /work/runs/stop85_glots_em first: on a new machine the kept ones), each
-# building both finished (session 70's garage-like lots: SET glots_val
-# for the shipped default on 1050-1079, glotsX_val for a configuration X of it there (REFS=glots_val bash direct.sh
-# glotsX_val pairs the two), glots_rep for the default's replication on 1080-1109)
+# with EM's of runs/glots_em, each building both finished (session 70's garage-like lots: glots_val for the shipped
+# default on 1050-1079, glotsX_val for a configuration X of it there (REFS=glots_val bash direct.sh glotsX_val pairs
+# the two), glots_rep for the default's replication on 1080-1109)
 join_lots() {
   local em=$HERE/runs/glots_em
-  keep /work/runs/stop85_glots_em $em
+  keep_lots_em
   for seed in $(seq $3 $4); do
     local d=/work/runs/stop85_$2_learned/building_$seed
     [ -e $d/trials.jsonl ] && [ -e $em/building_$seed/trials.jsonl ] || continue
@@ -180,7 +182,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     street_garage_*) street_garage_variant $SET; continue;;
     prior*|nodes*|dagger*|blind*|gate*|icp*) join_prior $SET;;
     glots_rep) join_lots $SET glots 1080 1109;;
-    glots_em) keep /work/runs/stop85_glots_em $HERE/runs/glots_em; continue;;  # EM's trials of every garage-like lot
+    glots_em) keep_lots_em; continue;;
     glots*_val) join_lots $SET ${SET%_val} 1050 1079;;
     val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
