@@ -26,7 +26,8 @@
 # /work/runs/stop85_glots_learned joined with EM's of /work/runs/stop85_glots_em, building by building; glotsX_val:
 # a configuration's trials of /work/runs/stop85_glotsX_learned (step 4) joined the same way; glots_rep: the default's
 # replication on 1080-1109 (step 5, not pooled with glots_val); glots_em: EM's trials of every garage-like lot, kept in
-# runs/glots_em (the EM side of those sets, so they can be re-joined on a new machine).
+# runs/glots_em (the EM side of those sets, so they can be re-joined on a new machine). Session 71: glotsX_val90, the
+# trials of /work/runs/stop85_glotsX_learned on all 90 lots 1050-1139 (glots_val90: the default's).
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
@@ -184,6 +185,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     glots_rep) join_lots $SET glots 1080 1109;;
     glots_em) keep_lots_em; continue;;
     glots*_val) join_lots $SET ${SET%_val} 1050 1079;;
+    glots*_val90) join_lots $SET ${SET%_val90} 1050 1139;;
     val|val2|test|lots_val) keep /work/runs/stop85_$SET $HERE/runs/$SET;;  # EM's and the default's trials of one run
     *) echo "SETS: '$SET' is no set study.sh knows; a learned-only variant's name starts with prior, nodes, dagger," \
          "blind, gate or icp (its trials are joined with EM's)" >&2; exit 2;;

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# plan.md, session 71: DAgger on garage-like lots mixed into the building family, chosen on validation lots and
+# validation buildings together. Stages, in order (each named before any runs):
+#   collect   the shipped default in the loop (greedy), slam=model, training seeds of the building family with half of
+#             them garage-like lots (session 70's lot kind), EM's reward of every frontier (/work/data/s71_glots,
+#             collect_s71_glots.log; stops starting episodes after 40 min)
+#   train     EM-choice distillation (not A2C) from the shipped actor on its training split, 4,000 steps:
+#             actors/s71_glots.pt, late_probe_s71_glots.log
+#   screen    the new actor against the shipped one on the held-out decisions, paired (one_step_s71_glots_vs_shipped.log;
+#             descriptive)
+#   default_lots  the shipped default on the lots 1110-1139, the 30 it has not run (/work/runs/stop85_glots_learned,
+#             beside its 1050-1109; SETS=glots_val90 study.sh joins all 90 with EM's)
+#   val_lots  the new actor, learned only, on the 90 garage-like validation lots 1050-1139
+#             (/work/runs/stop85_glots71_learned; SETS=glots71_val90 study.sh, REFS=glots_val90 direct.sh glots71_val90)
+#   val_bldg  the same on the 90 validation buildings 1010-1099 (/work/runs/stop85_dagger71_val90; SETS=dagger71_val90
+#             study.sh, REFS=dagger9k_val90 direct.sh dagger71_val90)
+#   bash dagger_s71.sh train screen default_lots val_lots val_bldg
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+cd $HERE/../../..  # the repository
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+PY="nice -n 5 .venv/bin/python"
+DATA=${DATA:-/work/data/s71_glots}
+SHIPPED=policies/buildings_dagger_em_choice/actor.pt
+ACTOR=$HERE/actors/s71_glots.pt
+GARAGE_LIKE="scene.building.lot_lane_width=[2.0,4.5] scene.building.lot_car_pitch=[5.5,6.5] \
+scene.building.lot_gap_probability=0.05"
+source $HERE/../keep.sh
+stage_collect() {
+  $PY benchmarks/collect_decisions.py --out $DATA --scene building --layouts 0 1000 --tasks 400 --max-decisions 200 \
+    --workers 2 --actor $SHIPPED --minutes ${MINUTES:-40} \
+    --set scene.building.lot_probability=0.5 $GARAGE_LIKE > $HERE/collect_s71_glots.log 2>&1
+}
+stage_train() {
+  $PY $HERE/late_probe.py $DATA --arm all --actor $SHIPPED --steps 4000 --out $ACTOR > $HERE/late_probe_s71_glots.log
+}
+stage_screen() {  # descriptive: the new actor against the shipped one on the held-out decisions, paired
+  $PY $HERE/one_step.py $DATA --held-out --actor $ACTOR --versus $SHIPPED > $HERE/one_step_s71_glots_vs_shipped.log
+}
+lots() {  # lots FIRST LAST KIND [EXTRA]: the learned policy on session 70's garage-like lots
+  SIZE=[28,32] LANE=[2.0,4.5] PITCH=[5.5,6.5] GAP=0.05 POLICIES=[learned] FIRST=$1 LAST=$2 \
+    OUT=/work/runs/stop85_$3_learned EXTRA="${4:-}" bash $HERE/lots_s69.sh
+}
+stage_default_lots() { lots 1110 1139 glots; }
+stage_val_lots() { lots 1050 1139 glots71 "policy.checkpoint=$ACTOR"; }
+stage_val_bldg() {
+  stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger71_val90 EXTRA="policy.checkpoint=$ACTOR"
+}
+run_stages "collect train screen default_lots val_lots val_bldg" "$@"
