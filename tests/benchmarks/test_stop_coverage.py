@@ -8,7 +8,8 @@ episode index by hand, and an actor scored on a made-up dataset (EM's stored cho
 fine-tunes on the arm's rows of that dataset only (late rows repeated on request), held-out layouts never. at_travel.py:
 each run's means and ratios at fixed travel distances and at the stop, against values built into made-up trials.
 lots_em.py: EM's means and medians over made-up buildings. lot_blind.py: the blind floor of an empty box against
-its area by hand, and the garage against sparse lots. Bad arguments refused in one line."""
+its area by hand, and the garage against sparse lots. Bad arguments refused in one line. dataset_kinds.py: a made-up
+collection split by the lot probability it was drawn with."""
 
 from __future__ import annotations
 
@@ -588,3 +589,21 @@ def test_lot_blind_ranks_the_garage_below_sparse_lots(capsys):
                           (["--garage-seeds", "0"], "give at least 1")):
         code, _, err = run_main(LOT_BLIND, args, capsys)
         assert code != 0 and message in err, (args, err)
+
+
+DATASET_KINDS = "benchmarks/results/stop_coverage/dataset_kinds.py"
+
+
+def test_dataset_kinds_counts_lots_by_the_collections_overrides(tmp_path, capsys):
+    rows = [{"task": 0, "layout": 5, "stored": 7}, {"task": 1, "layout": 7, "stored": 3},
+            {"task": 2, "layout": 5, "stored": 2}, {"session_s": 1.0, "stored": 12}]
+    tmp_path.joinpath("collect.jsonl").write_text("".join(json.dumps(row) + "\n" for row in rows))
+    code, out, _ = run_main(DATASET_KINDS, [str(tmp_path), "--set", "scene.building.lot_probability=1"], capsys)
+    (all_lots,) = json_lines(out)
+    # layout 7 % 4 == 3 is held out: only layout 5's 9 decisions are on the training split
+    assert code == 0 and all_lots["decisions"] == {"lot": 12} and all_lots["training_decisions"] == {"lot": 9}
+    assert all_lots["episodes"] == {"lot": 3} and all_lots["layouts"] == {"lot": 2, "building": 0}
+    code, out, _ = run_main(DATASET_KINDS, [str(tmp_path)], capsys)  # the family's default draws no lot
+    assert code == 0 and json_lines(out)[0]["decisions"] == {"building": 12}
+    code, _, err = run_main(DATASET_KINDS, [str(tmp_path / "missing")], capsys)
+    assert code != 0 and "no collect.jsonl" in err

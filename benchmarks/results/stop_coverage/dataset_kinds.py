@@ -1,0 +1,62 @@
+"""How a collection's decisions split between parking lots and ordinary buildings (plan.md, session 71).
+
+A `collect_decisions.py` dataset whose building family draws lots (``scene.building.lot_probability`` > 0) records
+each episode's layout seed in ``collect.jsonl``; the plan of that seed, drawn again with the collection's own
+``--set`` overrides, says whether it was a lot. One JSON line: decisions and episodes per kind, in all and on the
+training split the offline fine-tune reads (``layout % 4 != 3``, ``one_step.held_out``'s complement):
+
+    python dataset_kinds.py /work/data/s71_glots --set scene.building.lot_probability=0.5 ...
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections import Counter
+from pathlib import Path
+
+from explore_rl.config import load_config
+from explore_rl.scene.building import LOT, generate_building
+
+HELD_OUT_EVERY = 4  # layout % 4 == 3: the episodes one_step.py scores, never trained on
+
+
+def episodes(dataset: Path) -> list[dict]:
+    """The episode rows of ``dataset/collect.jsonl`` (the session summaries, which name no layout, left out)."""
+    rows = [json.loads(line) for line in dataset.joinpath("collect.jsonl").read_text().splitlines() if line.strip()]
+    return [row for row in rows if "layout" in row]
+
+
+def is_lot(layout: int, overrides: list[str]) -> bool:
+    """Whether the building family's plan of seed ``layout`` under ``overrides`` is a parking lot."""
+    config = load_config(["scene=building", *overrides, f"scene.seed={layout}"])
+    return generate_building(config.scene, config.robot.radius).corridor == LOT
+
+
+def kinds(rows: list[dict], overrides: list[str]) -> dict:
+    """Decisions and episodes per kind, in all and on the training split, and the layouts of each kind."""
+    lot = {layout: is_lot(layout, overrides) for layout in sorted({row["layout"] for row in rows})}
+    decisions, count, training = Counter(), Counter(), Counter()
+    for row in rows:
+        kind = "lot" if lot[row["layout"]] else "building"
+        decisions[kind] += row["stored"]
+        count[kind] += 1
+        if row["layout"] % HELD_OUT_EVERY != HELD_OUT_EVERY - 1:
+            training[kind] += row["stored"]
+    return {"decisions": dict(decisions), "episodes": dict(count), "training_decisions": dict(training),
+            "layouts": {"lot": sum(lot.values()), "building": len(lot) - sum(lot.values())}}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
+                        help="the collection's --set overrides (its lot kind)")
+    args = parser.parse_args(argv)
+    if not args.dataset.joinpath("collect.jsonl").is_file():
+        parser.error(f"{args.dataset}: no collect.jsonl; give a dataset folder of collect_decisions.py")
+    print(json.dumps({"dataset": str(args.dataset), **kinds(episodes(args.dataset), args.set)}))
+
+
+if __name__ == "__main__":
+    main()
