@@ -595,14 +595,15 @@ DATASET_KINDS = "benchmarks/results/stop_coverage/dataset_kinds.py"
 
 
 def test_dataset_kinds_counts_lots_by_the_collections_overrides(tmp_path, capsys):
-    rows = [{"task": 0, "layout": 5, "stored": 7}, {"task": 1, "layout": 7, "stored": 3},
-            {"task": 2, "layout": 5, "stored": 2}, {"session_s": 1.0, "stored": 12}]
+    rows = [{"task": 0, "layout": 5, "stored": 7, "seconds": 2.0}, {"task": 1, "layout": 7, "stored": 3, "seconds": 1.0},
+            {"task": 2, "layout": 5, "stored": 2, "seconds": 1.0}, {"session_s": 1.0, "stored": 12}]
     tmp_path.joinpath("collect.jsonl").write_text("".join(json.dumps(row) + "\n" for row in rows))
     code, out, _ = run_main(DATASET_KINDS, [str(tmp_path), "--set", "scene.building.lot_probability=1"], capsys)
     (all_lots,) = json_lines(out)
     # layout 7 % 4 == 3 is held out: only layout 5's 9 decisions are on the training split
     assert code == 0 and all_lots["decisions"] == {"lot": 12} and all_lots["training_decisions"] == {"lot": 9}
     assert all_lots["episodes"] == {"lot": 3} and all_lots["layouts"] == {"lot": 2, "building": 0}
+    assert all_lots["decisions_per_s"] == {"lot": 3.0}  # 12 decisions in 4 s of episodes
     code, out, _ = run_main(DATASET_KINDS, [str(tmp_path)], capsys)  # the family's default draws no lot
     assert code == 0 and json_lines(out)[0]["decisions"] == {"building": 12}
     code, _, err = run_main(DATASET_KINDS, [str(tmp_path / "missing")], capsys)

@@ -3,7 +3,8 @@
 A `collect_decisions.py` dataset whose building family draws lots (``scene.building.lot_probability`` > 0) records
 each episode's layout seed in ``collect.jsonl``; the plan of that seed, drawn again with the collection's own
 ``--set`` overrides, says whether it was a lot. One JSON line: decisions and episodes per kind, in all and on the
-training split the offline fine-tune reads (``layout % 4 != 3``, ``one_step.held_out``'s complement):
+training split the offline fine-tune reads (``layout % 4 != 3``, ``one_step.held_out``'s complement), and each
+kind's decisions per second of its episodes' own time (one worker's rate):
 
     python dataset_kinds.py /work/data/s71_glots --set scene.building.lot_probability=0.5 ...
 """
@@ -34,17 +35,20 @@ def is_lot(layout: int, overrides: list[str]) -> bool:
 
 
 def kinds(rows: list[dict], overrides: list[str]) -> dict:
-    """Decisions and episodes per kind, in all and on the training split, and the layouts of each kind."""
+    """Decisions and episodes per kind, in all and on the training split, the layouts of each kind and its decisions
+    per second of episode time."""
     lot = {layout: is_lot(layout, overrides) for layout in sorted({row["layout"] for row in rows})}
-    decisions, count, training = Counter(), Counter(), Counter()
+    decisions, count, training, seconds = Counter(), Counter(), Counter(), Counter()
     for row in rows:
         kind = "lot" if lot[row["layout"]] else "building"
         decisions[kind] += row["stored"]
         count[kind] += 1
+        seconds[kind] += row["seconds"]
         if row["layout"] % HELD_OUT_EVERY != HELD_OUT_EVERY - 1:
             training[kind] += row["stored"]
     return {"decisions": dict(decisions), "episodes": dict(count), "training_decisions": dict(training),
-            "layouts": {"lot": sum(lot.values()), "building": len(lot) - sum(lot.values())}}
+            "layouts": {"lot": sum(lot.values()), "building": len(lot) - sum(lot.values())},
+            "decisions_per_s": {kind: round(decisions[kind] / seconds[kind], 3) for kind in seconds if seconds[kind] > 0}}
 
 
 def main(argv: list[str] | None = None) -> None:
