@@ -10,12 +10,15 @@
 #                  2420-2619 (/work/runs/stop85_prior_late150_test4), after em_test4 is complete
 #   default_test4  session 69: the shipped default (no prior) on 2420-2619 (/work/runs/stop85_dagger9k_test4), paired
 #                  with late150_test4 by building (descriptive: what the prior changes held out)
+#   em_test5       session 71: EM's trials on the next fresh pool 2620-2819 (/work/runs/stop85_test5), reserved for the
+#                  next candidate chosen on validation (policy-independent groundwork)
 #   bash fresh_pool_s63.sh em_test3 default_test3
 # then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 POOL="FIRST=2220 LAST=2419"
 NEXT_POOL="FIRST=2420 LAST=2619"  # session 65: reserved for the next candidate
+POOL5="FIRST=2620 LAST=2819"  # session 71: the pool after it
 source $HERE/../keep.sh
 stage_em_test3() { stop85 $POOL POLICIES=[em] OUT=/work/runs/stop85_test3; }
 stage_default_test3() {
@@ -29,4 +32,5 @@ stage_late150_test4() {
 stage_default_test4() {
   stop85 $NEXT_POOL POLICIES=[learned] OUT=/work/runs/stop85_dagger9k_test4 EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt"
 }
-run_stages "em_test3 default_test3 em_test4 late150_test4 default_test4" "$@"
+stage_em_test5() { stop85 $POOL5 POLICIES=[em] OUT=/work/runs/stop85_test5; }
+run_stages "em_test3 default_test3 em_test4 late150_test4 default_test4 em_test5" "$@"
