@@ -39,6 +39,14 @@ self_vs() {
   done
 }
 
+# in_repo_niced: for a long collection or fine-tune beside other runs, work from the repository with one BLAS thread
+# per process and PY at nice 5 (icp_s65.sh, dagger_s71.sh)
+in_repo_niced() {
+  cd $RESULTS/../..
+  export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+  PY="nice -n 5 .venv/bin/python"
+}
+
 # run_stages "KNOWN" STAGE...: a plan's stages in the order given, each a function stage_NAME of the calling script;
 # every name is checked against KNOWN before any stage runs (a typo costs nothing), and each stage's start and end
 # times (UTC) go to stdout

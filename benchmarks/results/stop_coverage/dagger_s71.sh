@@ -17,15 +17,13 @@
 #   bash dagger_s71.sh train screen default_lots val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
-cd $HERE/../../..  # the repository
-export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
-PY="nice -n 5 .venv/bin/python"
 DATA=${DATA:-/work/data/s71_glots}
 SHIPPED=policies/buildings_dagger_em_choice/actor.pt
 ACTOR=$HERE/actors/s71_glots.pt
 GARAGE_LIKE="scene.building.lot_lane_width=[2.0,4.5] scene.building.lot_car_pitch=[5.5,6.5] \
 scene.building.lot_gap_probability=0.05"
 source $HERE/../keep.sh
+in_repo_niced
 stage_collect() {
   $PY benchmarks/collect_decisions.py --out $DATA --scene building --layouts 0 1000 --tasks 400 --max-decisions 200 \
     --workers 2 --actor $SHIPPED --minutes ${MINUTES:-40} \

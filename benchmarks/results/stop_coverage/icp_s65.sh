@@ -12,11 +12,9 @@
 #   bash icp_s65.sh train screen val
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
-cd $HERE/../../..  # the repository
-export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
-PY="nice -n 5 .venv/bin/python"
 DATA=${DATA:-/work/data/s65_icp}
 source $HERE/../keep.sh
+in_repo_niced
 stage_collect() {
   $PY benchmarks/collect_decisions.py --out $DATA --scene building --layouts 0 1000 --tasks 400 --max-decisions 200 \
     --workers 2 --actor $HERE/actors/s56_all9k.pt --minutes 55 \
