@@ -6,13 +6,15 @@ They check that the scripts run, not their figures. Outputs go to ``tmp_path``.
 
 from __future__ import annotations
 
+import inspect
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from tests.benchmarks.smoke import ROOT, run_script
+from tests.benchmarks.smoke import ROOT, load_script, run_script
 
 # script, extra arguments ({tmp} = the test's tmp dir), keys the JSON last line must hold
 SCRIPTS = [
@@ -93,6 +95,31 @@ def test_every_script_has_a_smoke_test() -> None:
     tests = " ".join(p.read_text() for p in here.glob("test_*.py"))
     missing = sorted(name for name in scripts if not re.search(rf"\b{name}\b", tests))
     assert not missing, f"scripts without a smoke test in tests/benchmarks/: {missing}"
+
+
+def test_every_script_prints_its_help(capsys, monkeypatch) -> None:
+    """``--help`` of every benchmark and study script that parses arguments prints its usage and exits 0: argparse
+    formats each help string with ``%``, so a bare ``%`` in one (``layout % 4``) crashes ``--help`` only."""
+    root = Path(__file__).resolve().parents[2]
+    scripts = sorted(p for d in ("benchmarks", "scripts") for p in (root / d).rglob("*.py")
+                     if "__main__" in (text := p.read_text()) and "def main(" in text
+                     and ("argparse" in text or "parse_args(" in text))
+    assert len(scripts) > 40, f"expected the benchmark and study scripts, found {len(scripts)}"
+    broken = {}
+    for path in scripts:
+        name = str(path.relative_to(root))
+        module = load_script(name)
+        monkeypatch.setattr(sys, "argv", [name, "--help"])  # the benchmarks' common.parse_args reads sys.argv
+        try:
+            module.main(["--help"]) if inspect.signature(module.main).parameters else module.main()
+            broken[name] = "returned instead of exiting"
+        except SystemExit as exit_:
+            out = capsys.readouterr().out
+            if exit_.code not in (0, None) or "usage:" not in out:
+                broken[name] = f"exit {exit_.code}, usage printed: {'usage:' in out}"
+        except Exception as error:  # noqa: BLE001 - the failure to report is whatever --help raised
+            broken[name] = repr(error)
+    assert not broken, f"scripts whose --help fails: {broken}"
 
 
 def test_every_shell_driver_parses() -> None:

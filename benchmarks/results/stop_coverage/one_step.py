@@ -169,7 +169,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="first decision index of each band, ascending from 0")
     split = parser.add_mutually_exclusive_group()
     split.add_argument("--held-out", action="store_true",
-                       help="score only the layouts held out of fine-tuning (layout % 4 == 3; late_probe.py)")
+                       help="score only the layouts held out of fine-tuning (layout %% 4 == 3; late_probe.py)")
     split.add_argument("--training", action="store_true",
                        help="score only the layouts fine-tuning trains on (the others; in-sample for late_probe.py)")
     parser.add_argument("--versus", default=None,
