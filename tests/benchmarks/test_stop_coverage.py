@@ -608,3 +608,21 @@ def test_dataset_kinds_counts_lots_by_the_collections_overrides(tmp_path, capsys
     assert code == 0 and json_lines(out)[0]["decisions"] == {"building": 12}
     code, _, err = run_main(DATASET_KINDS, [str(tmp_path / "missing")], capsys)
     assert code != 0 and "no collect.jsonl" in err
+
+
+def test_one_step_groups_by_kind_with_the_collections_overrides(scored_data, capsys):
+    """``--set`` draws the layouts' plans as the collection did: with every plan a lot, ``kind lot`` holds all 25
+    decisions and scores as ``all``; without it (the default family, no lots) there is no kind group; a bad override is
+    refused in one line."""
+    root, actor_path = scored_data
+    code, out, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--set",
+                                         "scene.building.lot_probability=1"], capsys)
+    rows = {row["group"]: row for row in json_lines(out)}
+    assert code == 0, err
+    assert rows["kind lot"]["decisions"] == 25 and "kind building" not in rows
+    assert rows["kind lot"]["greedy"] == pytest.approx(rows["all"]["greedy"])
+    code, out, _ = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path)], capsys)
+    assert code == 0 and not any(row["group"].startswith("kind") for row in json_lines(out))
+    code, _, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--set",
+                                       "scene.building.lot_probability=2"], capsys)
+    assert code == 2 and "lot_probability" in err.strip().splitlines()[-1]

@@ -39,12 +39,13 @@ def per_building(path: Path) -> dict[int, dict]:
     return entries
 
 
-def plan_stats(seeds: list[int]) -> dict[int, dict]:
-    """Seed -> ``BuildingPlan.stats()`` of the default building family."""
+def plan_stats(seeds: list[int], overrides: list[str] | tuple[str, ...] = ()) -> dict[int, dict]:
+    """Seed -> ``BuildingPlan.stats()`` of the building family (the default one, or under config ``overrides``
+    such as a collection's lot kind)."""
     from explore_rl.config import load_config
     from explore_rl.scene.building import generate_building
 
-    config = load_config(["scene=building"])
+    config = load_config(["scene=building", *overrides])
     return {s: generate_building(replace(config.scene, seed=s), config.robot.radius).stats() for s in seeds}
 
 

@@ -8,6 +8,8 @@
 #             actors/s71_glots.pt, late_probe_s71_glots.log
 #   screen    the new actor against the shipped one on the held-out decisions, paired (one_step_s71_glots_vs_shipped.log;
 #             descriptive)
+#   screen_kinds  the same with the collection's plans (its area terciles right, and lots against buildings):
+#             one_step_s71_glots_vs_shipped_kinds.log (descriptive, added after the lots' outcome)
 #   default_lots  the shipped default on the lots 1110-1139, the 30 it has not run (/work/runs/stop85_glots_learned,
 #             beside its 1050-1109; SETS=glots_val90 study.sh joins all 90 with EM's)
 #   val_lots  the new actor, learned only, on the 90 garage-like validation lots 1050-1139
@@ -35,6 +37,10 @@ stage_train() {
 stage_screen() {  # descriptive: the new actor against the shipped one on the held-out decisions, paired
   $PY $HERE/one_step.py $DATA --held-out --actor $ACTOR --versus $SHIPPED > $HERE/one_step_s71_glots_vs_shipped.log
 }
+stage_screen_kinds() {  # descriptive, added after the lots' outcome: the same screen with the collection's plans, by kind
+  $PY $HERE/one_step.py $DATA --held-out --actor $ACTOR --versus $SHIPPED \
+    --set scene.building.lot_probability=0.5 $GARAGE_LIKE > $HERE/one_step_s71_glots_vs_shipped_kinds.log
+}
 lots() {  # lots FIRST LAST KIND [EXTRA]: the learned policy on session 70's garage-like lots
   SIZE=[28,32] LANE=[2.0,4.5] PITCH=[5.5,6.5] GAP=0.05 POLICIES=[learned] FIRST=$1 LAST=$2 \
     OUT=/work/runs/stop85_$3_learned EXTRA="${4:-}" bash $HERE/lots_s69.sh
@@ -44,4 +50,4 @@ stage_val_lots() { lots 1050 1139 glots71 "policy.checkpoint=$ACTOR"; }
 stage_val_bldg() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger71_val90 EXTRA="policy.checkpoint=$ACTOR"
 }
-run_stages "collect train screen default_lots val_lots val_bldg" "$@"
+run_stages "collect train screen screen_kinds default_lots val_lots val_bldg" "$@"

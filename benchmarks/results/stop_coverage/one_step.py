@@ -11,7 +11,9 @@ decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_be
 with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
 ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
-the action set's default cap). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
+the action set's default cap); with ``--set`` (the collection's own overrides, e.g. its lot kind: the plans are drawn
+with them) also by kind, ``kind lot`` and ``kind building``, when the scored layouts hold parking lots (session 71).
+Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
 layouts no fine-tuning of ``late_probe.py`` saw; ``--training``: only the others (session 56); ``--versus FILE``:
 also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired);
 ``--gate F ...`` (session 59): over all scored decisions, the greedy gap when the fraction F of decisions the actor is
@@ -20,7 +22,7 @@ seeded control): what the actor's confidence knows about its own mistakes, i.e. 
 would close (``confidence_cut``: the ``policy.em_below_confidence`` that hands those decisions to EM). One JSON line per group (and per gate fraction).
 
     python benchmarks/results/stop_coverage/one_step.py /work/data/s55_phases [--actor FILE] [--bands 0 15 30] [--frontiers 1 8 10]
-        [--held-out | --training] [--versus FILE]
+        [--held-out | --training] [--versus FILE] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -146,9 +148,10 @@ def ranges(starts: list[int]) -> list[tuple[str, float, float]]:
 
 
 def decision_groups(index: np.ndarray, areas: np.ndarray, building_areas: list[float], frontiers: np.ndarray,
-                    bands: list[int], sizes: list[int]) -> dict[str, np.ndarray]:
+                    bands: list[int], sizes: list[int], lots: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Rows of each group: all; by decision index (``bands``); by area tercile of the buildings (``areas`` per row,
-    terciles of ``building_areas``; a NaN row is in none); by the number of frontiers (``sizes``)."""
+    terciles of ``building_areas``; a NaN row is in none); by the number of frontiers (``sizes``); with ``lots`` (per
+    row, whether its layout is a parking lot) by kind."""
     groups = {"all": np.arange(len(index))}
     for label, low, high in ranges(bands):
         groups[f"decisions {label}"] = np.flatnonzero((index >= low) & (index < high))
@@ -158,6 +161,8 @@ def decision_groups(index: np.ndarray, areas: np.ndarray, building_areas: list[f
         groups[name] = np.flatnonzero(chosen)
     for label, low, high in ranges(sizes):
         groups[f"frontiers {label}"] = np.flatnonzero((frontiers >= low) & (frontiers < high))
+    if lots is not None:
+        groups["kind lot"], groups["kind building"] = np.flatnonzero(lots), np.flatnonzero(~lots)
     return groups
 
 
@@ -178,6 +183,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="smallest action-set size of each group, ascending from 1")
     parser.add_argument("--gate", type=float, nargs="+", default=[], metavar="F",
                         help="fractions of the least confident decisions handed to EM's stored choice (0 < F <= 1)")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
+                        help="the collection's --set overrides, so its layouts' plans are drawn as it drew them")
     args = parser.parse_args(argv)
     if args.frontiers[0] != 1 or any(b <= a for a, b in zip(args.frontiers, args.frontiers[1:])):
         parser.error(f"--frontiers {' '.join(map(str, args.frontiers))}: give ascending sizes starting at 1")
@@ -190,6 +197,7 @@ def main(argv: list[str] | None = None) -> None:
 
     from explore_rl.graph.features import feature_names
     from explore_rl.models.actor_file import load_actor
+    from explore_rl.scene.building import LOT
     from explore_rl.trainer.dataset import DecisionDataset
 
     actors = {}
@@ -214,10 +222,16 @@ def main(argv: list[str] | None = None) -> None:
               for flag, (actor, file) in actors.items()}
     rewards, versus = scores["--actor"], scores.get("--versus")
     layouts = sorted(set(int(s) for s in episodes[scored, 0]))
-    area = {seed: stats["area"] for seed, stats in plan_stats(layouts).items()}
+    try:
+        plans = plan_stats(layouts, args.set)
+    except ValueError as error:  # a bad override, in one line
+        parser.error(f"--set: {error}")
+    area = {seed: stats["area"] for seed, stats in plans.items()}
     areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
+    lot = {seed for seed, stats in plans.items() if stats["corridor"] == LOT}
+    lots = np.array([int(s) in lot for s in episodes[:, 0]]) if lot else None
     frontiers = stored["action_mask"].sum(-1).numpy()
-    groups = decision_groups(index, areas, [area[s] for s in layouts], frontiers, args.bands, args.frontiers)
+    groups = decision_groups(index, areas, [area[s] for s in layouts], frontiers, args.bands, args.frontiers, lots)
     for name, rows in groups.items():
         rows = rows[scored[rows]]
         if len(rows):
