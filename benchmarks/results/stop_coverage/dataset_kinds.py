@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections import Counter
 from pathlib import Path
 
-from explore_rl.config import load_config
-from explore_rl.scene.building import LOT, generate_building
+from explore_rl.scene.building import LOT
 
-HELD_OUT_EVERY = 4  # layout % 4 == 3: the episodes one_step.py scores, never trained on
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from by_kind import plan_stats  # noqa: E402
+from one_step import held_out  # noqa: E402  (the layouts no fine-tune trains on)
 
 
 def episodes(dataset: Path) -> list[dict]:
@@ -28,23 +30,18 @@ def episodes(dataset: Path) -> list[dict]:
     return [row for row in rows if "layout" in row]
 
 
-def is_lot(layout: int, overrides: list[str]) -> bool:
-    """Whether the building family's plan of seed ``layout`` under ``overrides`` is a parking lot."""
-    config = load_config(["scene=building", *overrides, f"scene.seed={layout}"])
-    return generate_building(config.scene, config.robot.radius).corridor == LOT
-
-
 def kinds(rows: list[dict], overrides: list[str]) -> dict:
     """Decisions and episodes per kind, in all and on the training split, the layouts of each kind and its decisions
     per second of episode time."""
-    lot = {layout: is_lot(layout, overrides) for layout in sorted({row["layout"] for row in rows})}
+    plans = plan_stats(sorted({row["layout"] for row in rows}), overrides)
+    lot = {layout: stats["corridor"] == LOT for layout, stats in plans.items()}
     decisions, count, training, seconds = Counter(), Counter(), Counter(), Counter()
     for row in rows:
         kind = "lot" if lot[row["layout"]] else "building"
         decisions[kind] += row["stored"]
         count[kind] += 1
         seconds[kind] += row["seconds"]
-        if row["layout"] % HELD_OUT_EVERY != HELD_OUT_EVERY - 1:
+        if not held_out(row["layout"]):
             training[kind] += row["stored"]
     return {"decisions": dict(decisions), "episodes": dict(count), "training_decisions": dict(training),
             "layouts": {"lot": sum(lot.values()), "building": len(lot) - sum(lot.values())},

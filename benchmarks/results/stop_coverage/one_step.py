@@ -9,8 +9,8 @@ decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_be
 * ``em``: EM's stored choice, 1 by construction (a check that rows and labels line up),
 
 with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
-(``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, as
-``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
+(``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, or of
+the family under ``--set``, as ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
 the action set's default cap); with ``--set`` (the collection's own overrides, e.g. its lot kind: the plans are drawn
 with them) also by kind, ``kind lot`` and ``kind building``, when the scored layouts hold parking lots (session 71).
 Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
