@@ -16,6 +16,11 @@
 #             (/work/runs/stop85_glots71_learned; SETS=glots71_val90 study.sh, REFS=glots_val90 direct.sh glots71_val90)
 #   val_bldg  the same on the 90 validation buildings 1010-1099 (/work/runs/stop85_dagger71_val90; SETS=dagger71_val90
 #             study.sh, REFS=dagger9k_val90 direct.sh dagger71_val90)
+#   icp_lots  (added after the screen by kind) the shipped actor in the loop under slam=icp on garage-like lots of the
+#             training seeds (the validation lots' kind and size), EM's labels: /work/data/s71_icp_lots,
+#             collect_s71_icp_lots.log; stops starting episodes after 20 min
+#   screen_icp  the new actor against the shipped one on those icp lot states (one_step_s71_icp_lots.log; the held-out
+#             layouts alone: one_step_s71_icp_lots_held_out.log)
 #   bash dagger_s71.sh train screen default_lots val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -45,9 +50,21 @@ lots() {  # lots FIRST LAST KIND [EXTRA]: the learned policy on session 70's gar
   SIZE=[28,32] LANE=[2.0,4.5] PITCH=[5.5,6.5] GAP=0.05 POLICIES=[learned] FIRST=$1 LAST=$2 \
     OUT=/work/runs/stop85_$3_learned EXTRA="${4:-}" bash $HERE/lots_s69.sh
 }
+LOTS_ONLY="scene.building.lot_probability=1 scene.building.size_min=28 scene.building.size_max=32 $GARAGE_LIKE"
+stage_icp_lots() {  # added after the screen by kind: EM-labelled icp states of validation-like lots (training seeds)
+  $PY benchmarks/collect_decisions.py --out ${ICP_DATA:-/work/data/s71_icp_lots} --scene building --layouts 0 1000 \
+    --tasks 100 --max-decisions 200 --workers 2 --actor $SHIPPED --minutes ${MINUTES:-20} \
+    --set slam=icp explore.travel_budget=600 $LOTS_ONLY > $HERE/collect_s71_icp_lots.log 2>&1
+}
+stage_screen_icp() {  # the screen on those icp lot states: all of them, and the held-out layouts alone
+  $PY $HERE/one_step.py ${ICP_DATA:-/work/data/s71_icp_lots} --actor $ACTOR --versus $SHIPPED --set $LOTS_ONLY \
+    > $HERE/one_step_s71_icp_lots.log
+  $PY $HERE/one_step.py ${ICP_DATA:-/work/data/s71_icp_lots} --held-out --actor $ACTOR --versus $SHIPPED \
+    --set $LOTS_ONLY > $HERE/one_step_s71_icp_lots_held_out.log
+}
 stage_default_lots() { lots 1110 1139 glots; }
 stage_val_lots() { lots 1050 1139 glots71 "policy.checkpoint=$ACTOR"; }
 stage_val_bldg() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger71_val90 EXTRA="policy.checkpoint=$ACTOR"
 }
-run_stages "collect train screen screen_kinds default_lots val_lots val_bldg" "$@"
+run_stages "collect train screen screen_kinds default_lots val_lots val_bldg icp_lots screen_icp" "$@"
