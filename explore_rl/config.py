@@ -89,11 +89,16 @@ def load_config(overrides: Sequence[str] = ()) -> Config:
     ``["scene=street", "slam=model", "seed=3"]``), composed from ``conf/`` exactly as the
     command-line tools do: for scripts, benchmarks, notebooks and tests."""
     from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
     from omegaconf import OmegaConf
 
     register_configs()
-    with initialize_config_dir(CONF_DIR, version_base="1.3"):
-        composed = compose("config", overrides=list(overrides))
+    try:
+        with initialize_config_dir(CONF_DIR, version_base="1.3"):
+            composed = compose("config", overrides=list(overrides))
+    except HydraException as error:  # an unknown key or group option: one line naming it and the fix, as validate's
+        message = " ".join(str(error).split()).split(" Config search path")[0]  # Hydra's search path says nothing here
+        raise ValueError(message) from error
     config: Config = OmegaConf.to_object(composed)  # type: ignore[assignment]
     validate(config)
     return config

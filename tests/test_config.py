@@ -67,6 +67,17 @@ def test_bad_value_fails_in_one_line_naming_the_key_and_the_range(override, mess
     assert "\n" not in str(error.value)
 
 
+@pytest.mark.parametrize("override,message", [
+    ("scene.building.nope=1", r"Could not override 'scene.building.nope'.* use \+scene.building.nope=1"),
+    ("scene=nowhere", "Could not find 'scene/nowhere'"),
+])
+def test_unknown_key_or_option_fails_in_one_line_naming_it(override, message):
+    """What Hydra refuses to compose (scripts calling load_config catch ValueError for one line)."""
+    with pytest.raises(ValueError, match=message) as error:
+        load_config([override])
+    assert "\n" not in str(error.value)
+
+
 @pytest.mark.parametrize("overrides", [
     [], ["scene=street"], ["scene=garage"], ["planning.virtual_map.cell_size=0.3"], ["explore.travel_budget=inf"],
     ["policy=em", "compare.policies=[em,learned,random]"], ["lidar.channels=1", "lidar.min_elevation_deg=0",

@@ -608,6 +608,8 @@ def test_dataset_kinds_counts_lots_by_the_collections_overrides(tmp_path, capsys
     assert code == 0 and json_lines(out)[0]["decisions"] == {"building": 12}
     code, _, err = run_main(DATASET_KINDS, [str(tmp_path / "missing")], capsys)
     assert code != 0 and "no collect.jsonl" in err
+    code, _, err = run_main(DATASET_KINDS, [str(tmp_path), "--set", "scene.building.nope=1"], capsys)
+    assert code == 2 and "scene.building.nope" in err.strip().splitlines()[-1]
 
 
 def test_one_step_groups_by_kind_with_the_collections_overrides(scored_data, capsys):

@@ -56,7 +56,11 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if not args.dataset.joinpath("collect.jsonl").is_file():
         parser.error(f"{args.dataset}: no collect.jsonl; give a dataset folder of collect_decisions.py")
-    print(json.dumps({"dataset": str(args.dataset), **kinds(episodes(args.dataset), args.set)}))
+    try:
+        counts = kinds(episodes(args.dataset), args.set)
+    except ValueError as error:  # a bad override, in one line
+        parser.error(f"--set: {error}")
+    print(json.dumps({"dataset": str(args.dataset), **counts}))
 
 
 if __name__ == "__main__":
