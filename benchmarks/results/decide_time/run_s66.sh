@@ -30,7 +30,7 @@ QUICK="bench_building bench_collect bench_decision bench_decision_real bench_dri
   bench_import bench_lidar bench_policy bench_slam bench_sorting study_buildings study_fidelity study_inflation
   study_keyframes study_ordering study_safety sweep_alpha"  # session 60's list (the rest need data folders) + bench_sorting
 stage_quick() {
-  out=$HERE/../suite_time/quick_all_s66.log
+  out=${QUICK_LOG:-$HERE/../suite_time/quick_all_s66.log}  # QUICK_LOG: another session's log
   : > $out
   for name in $QUICK; do
     start=$(date +%s)
