@@ -49,6 +49,13 @@ def plan_stats(seeds: list[int], overrides: list[str] | tuple[str, ...] = ()) ->
     return {s: generate_building(replace(config.scene, seed=s), config.robot.radius).stats() for s in seeds}
 
 
+def lot_seeds(plans: dict[int, dict]) -> set[int]:
+    """The seeds of ``plan_stats`` whose plan is a parking lot."""
+    from explore_rl.scene.building import LOT
+
+    return {seed for seed, stats in plans.items() if stats["corridor"] == LOT}
+
+
 def geometric_mean(ratios: np.ndarray, seed: int = 0) -> tuple[float, list[float]]:
     """Geometric mean of ``ratios`` and its bootstrap 95 % interval over them."""
     logs = np.log(ratios)

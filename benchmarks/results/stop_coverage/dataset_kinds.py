@@ -17,10 +17,8 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from explore_rl.scene.building import LOT
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from by_kind import plan_stats  # noqa: E402
+from by_kind import lot_seeds, plan_stats  # noqa: E402
 from one_step import held_out  # noqa: E402  (the layouts no fine-tune trains on)
 
 
@@ -34,7 +32,8 @@ def kinds(rows: list[dict], overrides: list[str]) -> dict:
     """Decisions and episodes per kind, in all and on the training split, the layouts of each kind and its decisions
     per second of episode time."""
     plans = plan_stats(sorted({row["layout"] for row in rows}), overrides)
-    lot = {layout: stats["corridor"] == LOT for layout, stats in plans.items()}
+    lots = lot_seeds(plans)
+    lot = {layout: layout in lots for layout in plans}
     decisions, count, training, seconds = Counter(), Counter(), Counter(), Counter()
     for row in rows:
         kind = "lot" if lot[row["layout"]] else "building"

@@ -10,11 +10,11 @@ decisions, the pooled one-step gap closed ``(E[r_pick] - E[r_uniform]) / (E[r_be
 
 with a bootstrap 95 % interval over episodes. Groups: all decisions; by the decision's index in its episode
 (``--bands``); by the area tercile of the episode's building (``generate_building`` of the default family, or of
-the family under ``--set``, as ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder choice when there are more; 10 is
-the action set's default cap); with ``--set`` (the collection's own overrides, e.g. its lot kind: the plans are drawn
-with them) also by kind, ``kind lot`` and ``kind building``, when the scored layouts hold parking lots (session 71).
-Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``: only the
-layouts no fine-tuning of ``late_probe.py`` saw; ``--training``: only the others (session 56); ``--versus FILE``:
+the family under ``--set``, as ``by_kind.py``); by the decision's number of frontiers (``--frontiers``: a harder
+choice when there are more; 10 is the action set's default cap); with ``--set`` (the collection's own overrides, e.g.
+its lot kind: the plans are drawn with them) also by kind, ``kind lot`` and ``kind building``, when the scored
+layouts hold parking lots (session 71). Groups are post hoc: descriptive only (plan.md, session 55). ``--held-out``:
+only the layouts no fine-tuning of ``late_probe.py`` saw; ``--training``: only the others (session 56); ``--versus FILE``:
 also each group's difference to another actor, with a bootstrap that draws the same episodes for both (paired);
 ``--gate F ...`` (session 59): over all scored decisions, the greedy gap when the fraction F of decisions the actor is
 least sure of (lowest top probability) take EM's stored choice instead, beside the same fraction drawn at random (a
@@ -36,7 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from by_kind import plan_stats  # noqa: E402
+from by_kind import lot_seeds, plan_stats  # noqa: E402
 from common import cluster_bootstrap  # noqa: E402  (the episode is what is resampled)
 
 BOOTSTRAP = 2000
@@ -197,7 +197,6 @@ def main(argv: list[str] | None = None) -> None:
 
     from explore_rl.graph.features import feature_names
     from explore_rl.models.actor_file import load_actor
-    from explore_rl.scene.building import LOT
     from explore_rl.trainer.dataset import DecisionDataset
 
     actors = {}
@@ -228,7 +227,7 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--set: {error}")
     area = {seed: stats["area"] for seed, stats in plans.items()}
     areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
-    lot = {seed for seed, stats in plans.items() if stats["corridor"] == LOT}
+    lot = lot_seeds(plans)
     lots = np.array([int(s) in lot for s in episodes[:, 0]]) if lot else None
     frontiers = stored["action_mask"].sum(-1).numpy()
     groups = decision_groups(index, areas, [area[s] for s in layouts], frontiers, args.bands, args.frontiers, lots)
