@@ -66,3 +66,10 @@ run_stages() {
 # (slam=icp, a 600 m travel budget, graph.max_nodes=4096) and the given run.sh settings (POLICIES, FIRST, LAST, OUT,
 # EXTRA)
 stop85() { env SLAM=icp BUDGET=600 MAX_NODES=4096 "$@" bash $RESULTS/keyframes_45deg/run.sh; }
+
+# garage_like_lots FIRST LAST KIND [EXTRA]: the learned policy (with EXTRA's overrides) on session 70's garage-like lots
+# FIRST-LAST in the stop-85 config (lots_s69.sh), into /work/runs/stop85_KIND_learned (study.sh's glotsX_val90 sets)
+garage_like_lots() {
+  SIZE=[28,32] LANE=[2.0,4.5] PITCH=[5.5,6.5] GAP=0.05 POLICIES=[learned] FIRST=$1 LAST=$2 \
+    OUT=/work/runs/stop85_$3_learned EXTRA="${4:-}" bash $RESULTS/stop_coverage/lots_s69.sh
+}

@@ -46,10 +46,6 @@ stage_screen_kinds() {  # descriptive, added after the lots' outcome: the same s
   $PY $HERE/one_step.py $DATA --held-out --actor $ACTOR --versus $SHIPPED \
     --set scene.building.lot_probability=0.5 $GARAGE_LIKE > $HERE/one_step_s71_glots_vs_shipped_kinds.log
 }
-lots() {  # lots FIRST LAST KIND [EXTRA]: the learned policy on session 70's garage-like lots
-  SIZE=[28,32] LANE=[2.0,4.5] PITCH=[5.5,6.5] GAP=0.05 POLICIES=[learned] FIRST=$1 LAST=$2 \
-    OUT=/work/runs/stop85_$3_learned EXTRA="${4:-}" bash $HERE/lots_s69.sh
-}
 LOTS_ONLY="scene.building.lot_probability=1 scene.building.size_min=28 scene.building.size_max=32 $GARAGE_LIKE"
 stage_icp_lots() {  # added after the screen by kind: EM-labelled icp states of validation-like lots (training seeds)
   $PY benchmarks/collect_decisions.py --out ${ICP_DATA:-/work/data/s71_icp_lots} --scene building --layouts 0 1000 \
@@ -62,8 +58,8 @@ stage_screen_icp() {  # the screen on those icp lot states: all of them, and the
   $PY $HERE/one_step.py ${ICP_DATA:-/work/data/s71_icp_lots} --held-out --actor $ACTOR --versus $SHIPPED \
     --set $LOTS_ONLY > $HERE/one_step_s71_icp_lots_held_out.log
 }
-stage_default_lots() { lots 1110 1139 glots; }
-stage_val_lots() { lots 1050 1139 glots71 "policy.checkpoint=$ACTOR"; }
+stage_default_lots() { garage_like_lots 1110 1139 glots; }
+stage_val_lots() { garage_like_lots 1050 1139 glots71 "policy.checkpoint=$ACTOR"; }
 stage_val_bldg() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger71_val90 EXTRA="policy.checkpoint=$ACTOR"
 }

@@ -7,7 +7,8 @@ layouts are not held out (``one_step.held_out``: ``layout % 4 == 3`` never train
 or only those from decision ``--late-from`` of their episode on (``--arm late``). Session 56 added ``--late-repeat N``
 (the late ones drawn N times as often) and ``--fraction F`` (a seeded fraction of the episodes, for a learning curve);
 session 57 ``--blind NAME ...`` (those node-feature columns read as 0 in training, and the written file's input weights
-on them are 0: an actor that does not read them, scored or run as it is by ``one_step.py`` and the runner).
+on them are 0: an actor that does not read them, scored or run as it is by ``one_step.py`` and the runner); session 72
+``--revisit-repeat N`` (the decisions whose EM choice revisits keyframes, ``revisits`` > 0, drawn N times as often).
 Writes the fine-tuned actor file; ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out
 layouts (plan.md, sessions 55-56). One JSON line: arm, fraction, training decisions and episodes, late repeat, rows
 drawn from, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
@@ -40,7 +41,21 @@ def training_rows(layouts: np.ndarray, episodes: np.ndarray, arm: str, late_from
     late = decision_index(episodes) >= late_from
     if arm == "late":
         kept &= late
-    return np.concatenate([np.flatnonzero(kept)] + [np.flatnonzero(kept & late)] * (late_repeat - 1))
+    return repeated(np.flatnonzero(kept), late, late_repeat)
+
+
+def repeated(rows: np.ndarray, chosen: np.ndarray, repeat: int) -> np.ndarray:
+    """``rows`` with those where the boolean ``chosen`` (over all rows) holds appearing ``repeat`` times in all, so
+    that uniform draws take them ``repeat`` times as often."""
+    return np.concatenate([rows] + [rows[chosen[rows]]] * (repeat - 1))
+
+
+def em_revisits(stored, column: int) -> np.ndarray:
+    """Per stored decision (a dataset's rows): whether EM's choice revisits keyframes, i.e. its node's ``revisits``
+    feature (in ``x`` column ``column``) is above 0."""
+    import torch
+
+    return (stored["x"][torch.arange(len(stored)), stored["em_action"].long(), column] > 0).numpy()
 
 
 class BlindColumns:
@@ -100,6 +115,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--late-from", type=int, default=30, help="arm late: first decision index trained on")
     parser.add_argument("--late-repeat", type=int, default=1,
                         help="draw the late decisions this many times as often (1 = uniform)")
+    parser.add_argument("--revisit-repeat", type=int, default=1,
+                        help="draw the decisions whose EM choice revisits keyframes this many times as often")
     parser.add_argument("--fraction", type=float, default=1.0,
                         help="train on a seeded random fraction of the arm's episodes (a learning curve)")
     parser.add_argument("--steps", type=int, default=1000)
@@ -111,9 +128,10 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if not 0 < args.fraction <= 1:
         parser.error(f"--fraction {args.fraction}: give a fraction in (0, 1]")
-    if args.steps < 1 or args.late_from < 0 or args.late_repeat < 1 or not args.lr > 0:
-        parser.error(f"--steps {args.steps} --late-from {args.late_from} --late-repeat {args.late_repeat} --lr "
-                     f"{args.lr}: give steps >= 1, late-from >= 0, late-repeat >= 1 and a positive lr")
+    if args.steps < 1 or args.late_from < 0 or args.late_repeat < 1 or args.revisit_repeat < 1 or not args.lr > 0:
+        parser.error(f"--steps {args.steps} --late-from {args.late_from} --late-repeat {args.late_repeat} "
+                     f"--revisit-repeat {args.revisit_repeat} --lr {args.lr}: give steps >= 1, late-from >= 0, "
+                     "late-repeat >= 1, revisit-repeat >= 1 and a positive lr")
     if not (args.dataset / "dataset.json").is_file():
         parser.error(f"{args.dataset}: no dataset.json there; give a folder of benchmarks/collect_decisions.py")
 
@@ -137,6 +155,11 @@ def main(argv: list[str] | None = None) -> None:
     rows = training_rows(layouts, episodes, args.arm, args.late_from, args.late_repeat)
     if args.fraction < 1:
         rows = episode_fraction(rows, episodes, args.fraction, args.seed)
+    if args.revisit_repeat > 1:
+        try:
+            rows = repeated(rows, em_revisits(stored, dataset.columns_for(["revisits"])[0]), args.revisit_repeat)
+        except ValueError as error:  # a dataset without the extended features
+            parser.error(f"--revisit-repeat: {error}")
     if len(rows) == 0:
         parser.error(f"{args.dataset}: no decision for arm {args.arm} (late-from {args.late_from}) outside the "
                      "held-out layouts")
@@ -145,13 +168,15 @@ def main(argv: list[str] | None = None) -> None:
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
                                                   "fraction": args.fraction, "steps": args.steps,
-                                                  "blind": args.blind}, layouts[rows])
+                                                  "blind": args.blind, "revisit_repeat": args.revisit_repeat},
+                                 layouts[rows])
     if args.blind:
         blind_actor_file(path, args.blind)
     tenth = max(1, len(result.losses) // 10)
     print(json.dumps({"arm": args.arm, "fraction": args.fraction, "decisions": int(len(np.unique(rows))),
                       "episodes": int(len(np.unique(episodes[rows], axis=0))), "late_repeat": args.late_repeat,
-                      "blind": args.blind, "drawn_rows": int(len(rows)), "steps": args.steps,
+                      "revisit_repeat": args.revisit_repeat, "blind": args.blind, "drawn_rows": int(len(rows)),
+                      "steps": args.steps,
                       "seconds": round(result.seconds, 1), "skipped_steps": result.skipped_steps,
                       "loss_first_tenth": round(float(np.mean(result.losses[:tenth])), 4),
                       "loss_last_tenth": round(float(np.mean(result.losses[-tenth:])), 4), "out": str(path)}))
