@@ -9,7 +9,8 @@ fine-tunes on the arm's rows of that dataset only (late rows repeated on request
 each run's means and ratios at fixed travel distances and at the stop, against values built into made-up trials.
 lots_em.py: EM's means and medians over made-up buildings. lot_blind.py: the blind floor of an empty box against
 its area by hand, and the garage against sparse lots. Bad arguments refused in one line. dataset_kinds.py: a made-up
-collection split by the lot probability it was drawn with."""
+collection split by the lot probability it was drawn with. revisit_choice.py: the revisit rates of EM's and the
+actor's choices on the made-up dataset, by hand; late_probe.py's ``--revisit-repeat`` rows by hand."""
 
 from __future__ import annotations
 
@@ -394,6 +395,39 @@ def test_late_probe_repeats_the_late_rows(scored_data, capsys):
     assert code == 2 and "--fraction 1.5" in err.strip().splitlines()[-1]
 
 
+def test_late_probe_repeats_the_rows_where_em_revisits(scored_data, capsys):
+    """``em_revisits`` reads the ``revisits`` feature of EM's chosen node; ``repeated`` draws those rows N times in all
+    and no others; ``--revisit-repeat 3`` trains on layout 4's 20 decisions plus twice its EM-revisit ones; 0 is
+    refused in one line."""
+    import torch
+    from tensordict import TensorDict
+
+    late_probe = load_script(LATE_PROBE)
+    x = torch.zeros(3, 2, 4)
+    x[0, 1, 2] = 2.0  # row 0: EM picks node 1, which revisits
+    x[1, 0, 2] = 1.0  # row 1: EM picks node 1; node 0 revisits, node 1 does not
+    rows = TensorDict({"x": x, "em_action": torch.tensor([1, 1, 0])}, batch_size=[3])
+    assert late_probe.em_revisits(rows, 2).tolist() == [True, False, False]
+    chosen = np.array([True, False, True, False])
+    assert sorted(late_probe.repeated(np.array([0, 1, 2]), chosen, 3)) == [0, 0, 0, 1, 2, 2, 2]
+    root, actor_path = scored_data
+    from explore_rl.trainer.dataset import DecisionDataset
+
+    dataset = DecisionDataset(root / "data")
+    stored = dataset.rows()
+    revisiting = late_probe.em_revisits(stored, dataset.columns_for(["revisits"])[0])
+    expected = 20 + 2 * int(revisiting[stored["layout"].numpy() == 4].sum())
+    code, stdout, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--actor", str(actor_path),
+                                              "--revisit-repeat", "3", "--steps", "2",
+                                              "--out", str(root / "revisit.pt")], capsys)
+    assert code == 0, err
+    result = json_lines(stdout)[-1]
+    assert result["decisions"] == 20 and result["drawn_rows"] == expected > 20 and result["revisit_repeat"] == 3
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--revisit-repeat", "0",
+                                         "--out", str(root / "revisit.pt")], capsys)
+    assert code == 2 and "--revisit-repeat 0" in err.strip().splitlines()[-1]
+
+
 def test_late_probe_keeps_whole_episodes_for_a_fraction():
     """``episode_fraction``: half of four episodes keeps two of them whole, the same two for the same seed; a tiny
     fraction still keeps one episode."""
@@ -628,3 +662,46 @@ def test_one_step_groups_by_kind_with_the_collections_overrides(scored_data, cap
     code, _, err = run_main(ONE_STEP, [str(root / "data"), "--actor", str(actor_path), "--set",
                                        "scene.building.lot_probability=2"], capsys)
     assert code == 2 and "lot_probability" in err.strip().splitlines()[-1]
+
+
+REVISIT_CHOICE = "benchmarks/results/stop_coverage/revisit_choice.py"
+
+
+def test_revisit_choice_rates_by_hand(scored_data, capsys):
+    """On the made-up dataset, every plan a lot: EM's revisit rate over the decisions offering a revisit equals the
+    count by hand from the stored features, every rate lies in [0, 1] inside its interval, held out and in sample
+    split the 25 decisions by layout, and a rate's parts agree (EM revisits or explores: the actor agrees on both
+    sides at most as often as it can); a folder that is no dataset and a bad override are refused in one line."""
+    import torch
+
+    from explore_rl.trainer.dataset import DecisionDataset
+
+    root, actor_path = scored_data
+    stored = DecisionDataset(root / "data").rows()
+    column = DecisionDataset(root / "data").columns_for(["revisits"])[0]
+    mask = stored["action_mask"]
+    revisits = stored["x"][:, :mask.shape[1], column] > 0
+    offered = (revisits & mask).any(-1).numpy()
+    em = revisits[torch.arange(len(stored)), stored["em_action"].long()].numpy()
+    lot = ["--set", "scene.building.lot_probability=1"]
+    counts = {}
+    for split, layout in (([], 3), (["--training"], 4)):
+        code, out, err = run_main(REVISIT_CHOICE, [str(root / "data"), "--actor", str(actor_path), *lot, *split],
+                                  capsys)
+        assert code == 0, err
+        (line,) = json_lines(out)
+        kept = offered & (stored["layout"].numpy() == layout)
+        assert line["kind"] == "lot" and line["decisions"] == int(kept.sum())
+        assert line["em_revisits"] == pytest.approx(em[kept].mean(), abs=1e-4)
+        for key in ("em_revisits", "actor_revisits", "agree_when_em_revisits"):
+            low, high = line[f"{key}_ci95"]
+            assert 0 <= low - 1e-9 <= line[key] <= high + 1e-9 <= 1 + 2e-9
+        counts[layout] = line["decisions"]
+    assert counts[3] <= 5 and counts[4] <= 20 and counts[3] + counts[4] == int(offered.sum())
+    code, out, _ = run_main(REVISIT_CHOICE, [str(root / "data"), "--actor", str(actor_path)], capsys)
+    assert code == 0 and json_lines(out)[0]["kind"] == "building"  # the default family draws no lot
+    code, _, err = run_main(REVISIT_CHOICE, [str(root / "missing")], capsys)
+    assert code == 2 and "no dataset.json" in err.strip().splitlines()[-1]
+    code, _, err = run_main(REVISIT_CHOICE, [str(root / "data"), "--actor", str(actor_path), "--set",
+                                             "scene.building.nope=1"], capsys)
+    assert code == 2 and "scene.building.nope" in err.strip().splitlines()[-1]
