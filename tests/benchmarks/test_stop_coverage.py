@@ -397,8 +397,8 @@ def test_late_probe_repeats_the_late_rows(scored_data, capsys):
 
 def test_late_probe_repeats_the_rows_where_em_revisits(scored_data, capsys):
     """``em_revisits`` reads the ``revisits`` feature of EM's chosen node; ``repeated`` draws those rows N times in all
-    and no others; ``--revisit-repeat 3`` trains on layout 4's 20 decisions plus twice its EM-revisit ones; 0 is
-    refused in one line."""
+    and no others; ``--revisit-repeat 3`` trains on layout 4's 20 decisions plus twice its EM-revisit ones, with
+    ``--revisit-kind lot`` only on lot plans; 0 and a bad override are refused in one line."""
     import torch
     from tensordict import TensorDict
 
@@ -426,6 +426,17 @@ def test_late_probe_repeats_the_rows_where_em_revisits(scored_data, capsys):
     code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--revisit-repeat", "0",
                                          "--out", str(root / "revisit.pt")], capsys)
     assert code == 2 and "--revisit-repeat 0" in err.strip().splitlines()[-1]
+    # --revisit-kind lot: with every plan a lot the same rows as all kinds; the default family has no lot, so none
+    for overrides, drawn in ((["--set", "scene.building.lot_probability=1"], expected), ([], 20)):
+        code, stdout, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--actor", str(actor_path),
+                                                  "--revisit-repeat", "3", "--revisit-kind", "lot", *overrides,
+                                                  "--steps", "1", "--out", str(root / "lot.pt")], capsys)
+        assert code == 0, err
+        assert json_lines(stdout)[-1]["drawn_rows"] == drawn and json_lines(stdout)[-1]["revisit_kind"] == "lot"
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--actor", str(actor_path),
+                                         "--revisit-repeat", "3", "--revisit-kind", "lot", "--set",
+                                         "scene.building.nope=1", "--out", str(root / "lot.pt")], capsys)
+    assert code == 2 and "scene.building.nope" in err.strip().splitlines()[-1]
 
 
 def test_late_probe_keeps_whole_episodes_for_a_fraction():

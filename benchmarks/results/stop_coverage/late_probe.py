@@ -8,7 +8,8 @@ or only those from decision ``--late-from`` of their episode on (``--arm late``)
 (the late ones drawn N times as often) and ``--fraction F`` (a seeded fraction of the episodes, for a learning curve);
 session 57 ``--blind NAME ...`` (those node-feature columns read as 0 in training, and the written file's input weights
 on them are 0: an actor that does not read them, scored or run as it is by ``one_step.py`` and the runner); session 72
-``--revisit-repeat N`` (the decisions whose EM choice revisits keyframes, ``revisits`` > 0, drawn N times as often).
+``--revisit-repeat N`` (the decisions whose EM choice revisits keyframes, ``revisits`` > 0, drawn N times as often;
+with ``--revisit-kind lot`` only those on parking-lot plans, drawn with the collection's ``--set`` overrides).
 Writes the fine-tuned actor file; ``one_step.py --held-out --actor FILE`` then scores it by band on the held-out
 layouts (plan.md, sessions 55-56). One JSON line: arm, fraction, training decisions and episodes, late repeat, rows
 drawn from, steps, seconds, the mean loss of the first and last tenth of the steps, the file.
@@ -107,6 +108,15 @@ def episode_fraction(rows: np.ndarray, episodes: np.ndarray, fraction: float, se
     return rows[np.isin(episode_of.ravel(), chosen)]
 
 
+def on_lots(layouts: np.ndarray, overrides: list[str]) -> np.ndarray:
+    """Per row: whether its layout's plan (the building family under ``overrides``, e.g. a collection's lot kind)
+    is a parking lot."""
+    from by_kind import lot_seeds, plan_stats
+
+    lots = lot_seeds(plan_stats(sorted(set(int(s) for s in layouts)), overrides))
+    return np.array([int(s) in lots for s in layouts], dtype=bool)
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="a dataset folder of benchmarks/collect_decisions.py")
@@ -117,6 +127,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="draw the late decisions this many times as often (1 = uniform)")
     parser.add_argument("--revisit-repeat", type=int, default=1,
                         help="draw the decisions whose EM choice revisits keyframes this many times as often")
+    parser.add_argument("--revisit-kind", choices=("all", "lot"), default="all",
+                        help="--revisit-repeat on every layout, or on parking-lot plans only (drawn with --set)")
+    parser.add_argument("--set", nargs="*", action="extend", default=[], metavar="KEY=VALUE",
+                        help="the collection's --set overrides, so its layouts' plans are drawn as it drew them")
     parser.add_argument("--fraction", type=float, default=1.0,
                         help="train on a seeded random fraction of the arm's episodes (a learning curve)")
     parser.add_argument("--steps", type=int, default=1000)
@@ -157,9 +171,12 @@ def main(argv: list[str] | None = None) -> None:
         rows = episode_fraction(rows, episodes, args.fraction, args.seed)
     if args.revisit_repeat > 1:
         try:
-            rows = repeated(rows, em_revisits(stored, dataset.columns_for(["revisits"])[0]), args.revisit_repeat)
-        except ValueError as error:  # a dataset without the extended features
+            chosen = em_revisits(stored, dataset.columns_for(["revisits"])[0])
+            if args.revisit_kind == "lot":
+                chosen &= on_lots(layouts, args.set)
+        except ValueError as error:  # a dataset without the extended features, or a bad override
             parser.error(f"--revisit-repeat: {error}")
+        rows = repeated(rows, chosen, args.revisit_repeat)
     if len(rows) == 0:
         parser.error(f"{args.dataset}: no decision for arm {args.arm} (late-from {args.late_from}) outside the "
                      "held-out layouts")
@@ -168,14 +185,16 @@ def main(argv: list[str] | None = None) -> None:
     path = save_offline_actor(learner, args.out, {"dataset": str(args.dataset), "arm": args.arm,
                                                   "late_from": args.late_from, "late_repeat": args.late_repeat,
                                                   "fraction": args.fraction, "steps": args.steps,
-                                                  "blind": args.blind, "revisit_repeat": args.revisit_repeat},
+                                                  "blind": args.blind, "revisit_repeat": args.revisit_repeat,
+                                                  "revisit_kind": args.revisit_kind, "set": args.set},
                                  layouts[rows])
     if args.blind:
         blind_actor_file(path, args.blind)
     tenth = max(1, len(result.losses) // 10)
     print(json.dumps({"arm": args.arm, "fraction": args.fraction, "decisions": int(len(np.unique(rows))),
                       "episodes": int(len(np.unique(episodes[rows], axis=0))), "late_repeat": args.late_repeat,
-                      "revisit_repeat": args.revisit_repeat, "blind": args.blind, "drawn_rows": int(len(rows)),
+                      "revisit_repeat": args.revisit_repeat, "revisit_kind": args.revisit_kind, "blind": args.blind,
+                      "drawn_rows": int(len(rows)),
                       "steps": args.steps,
                       "seconds": round(result.seconds, 1), "skipped_steps": result.skipped_steps,
                       "loss_first_tenth": round(float(np.mean(result.losses[:tenth])), 4),

@@ -10,6 +10,9 @@
 #             (/work/runs/stop85_glots72_learned; SETS=glots72_val90 study.sh, REFS=glots_val90 direct.sh glots72_val90)
 #   val_bldg  the new actor on the 90 validation buildings 1010-1099 (/work/runs/stop85_dagger72_val90;
 #             SETS=dagger72_val90 study.sh, REFS=dagger9k_val90 direct.sh dagger72_val90)
+#   train_lot, screen_lot, val_lots_lot, val_bldg_lot  plan step 7, added after val_bldg's outcome: the weight on lot
+#             decisions only (--revisit-kind lot), actors/s72_lotrevisit3.pt; logs *_s72_lotrevisit3*; sets glotsL3_val90
+#             (/work/runs/stop85_glotsL3_learned) and dagger73_val90 (/work/runs/stop85_dagger73_val90)
 #   bash revisit_s72.sh revisit train screen val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -46,4 +49,18 @@ stage_val_lots() { garage_like_lots 1050 1139 glots72 "policy.checkpoint=$ACTOR"
 stage_val_bldg() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger72_val90 EXTRA="policy.checkpoint=$ACTOR"
 }
-run_stages "revisit train screen val_lots val_bldg" "$@"
+LOT_ACTOR=$HERE/actors/s72_lotrevisit3.pt
+stage_train_lot() {
+  $PY $HERE/late_probe.py $DATA --arm all --actor $S71 --revisit-repeat 3 --revisit-kind lot --set $FAMILY \
+    --steps 4000 --out $LOT_ACTOR > $HERE/late_probe_s72_lotrevisit3.log
+}
+stage_screen_lot() {
+  choices $LOT_ACTOR revisit_choice_s72_lotrevisit3.log
+  $PY $HERE/one_step.py $DATA --held-out --actor $LOT_ACTOR --versus $S71 --set $FAMILY \
+    > $HERE/one_step_s72_lotrevisit3_kinds.log
+}
+stage_val_lots_lot() { garage_like_lots 1050 1139 glotsL3 "policy.checkpoint=$LOT_ACTOR"; }
+stage_val_bldg_lot() {
+  stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger73_val90 EXTRA="policy.checkpoint=$LOT_ACTOR"
+}
+run_stages "revisit train screen val_lots val_bldg train_lot screen_lot val_lots_lot val_bldg_lot" "$@"
