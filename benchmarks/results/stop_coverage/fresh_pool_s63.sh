@@ -14,8 +14,8 @@
 #                  next candidate chosen on validation (policy-independent groundwork)
 #   late150_test5  session 72: the late-prior option's replication on 2620-2819 (/work/runs/stop85_prior_late150_test5;
 #                  the shipped actor, pinned as actors/s56_all9k.pt, its weights), after em_test5 is complete
-#   dagger72_test5  session 72: the revisit-weighted actor (actors/s72_revisit3.pt), if chosen on validation, on
-#                  2620-2819 (/work/runs/stop85_dagger72_test5; plan.md session 72 step 6), after em_test5 is complete
+#   dagger73_test5  session 72: the validation choice, the lot-only revisit weight (actors/s72_lotrevisit3.pt), on
+#                  2620-2819 (/work/runs/stop85_dagger73_test5; plan.md session 72 step 8), after em_test5 is complete
 #   bash fresh_pool_s63.sh em_test3 default_test3
 # then SETS="test3 dagger9k_test3" bash study.sh (study_dagger9k_test3.log: the replication, read by plan.md's rule)
 set -e
@@ -41,7 +41,7 @@ stage_late150_test5() {
   stop85 $POOL5 POLICIES=[learned] OUT=/work/runs/stop85_prior_late150_test5 \
     EXTRA="policy.checkpoint=$HERE/actors/s56_all9k.pt policy.loop_bias=0.04 policy.loop_bias_from_m=150"
 }
-stage_dagger72_test5() {
-  stop85 $POOL5 POLICIES=[learned] OUT=/work/runs/stop85_dagger72_test5 EXTRA="policy.checkpoint=$HERE/actors/s72_revisit3.pt"
+stage_dagger73_test5() {
+  stop85 $POOL5 POLICIES=[learned] OUT=/work/runs/stop85_dagger73_test5 EXTRA="policy.checkpoint=$HERE/actors/s72_lotrevisit3.pt"
 }
-run_stages "em_test3 default_test3 em_test4 late150_test4 default_test4 em_test5 late150_test5 dagger72_test5" "$@"
+run_stages "em_test3 default_test3 em_test4 late150_test4 default_test4 em_test5 late150_test5 dagger73_test5" "$@"

@@ -13,6 +13,8 @@
 #   train_lot, screen_lot, val_lots_lot, val_bldg_lot  plan step 7, added after val_bldg's outcome: the weight on lot
 #             decisions only (--revisit-kind lot), actors/s72_lotrevisit3.pt; logs *_s72_lotrevisit3*; sets glotsL3_val90
 #             (/work/runs/stop85_glotsL3_learned) and dagger73_val90 (/work/runs/stop85_dagger73_val90)
+#   named    plan step 8: the validation choice (the lot-only arm) in the street and the garage, 50 trials each
+#            (/work/runs/stop85_street_garage_lotrevisit72; SETS=street_garage50_lotrevisit72 study.sh)
 #   bash revisit_s72.sh revisit train screen val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -63,4 +65,8 @@ stage_val_lots_lot() { garage_like_lots 1050 1139 glotsL3 "policy.checkpoint=$LO
 stage_val_bldg_lot() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger73_val90 EXTRA="policy.checkpoint=$LOT_ACTOR"
 }
-run_stages "revisit train screen val_lots val_bldg train_lot screen_lot val_lots_lot val_bldg_lot" "$@"
+stage_named() {
+  SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$LOT_ACTOR" OUT=/work/runs/stop85_street_garage_lotrevisit72 \
+    bash $HERE/street_garage.sh
+}
+run_stages "revisit train screen val_lots val_bldg train_lot screen_lot val_lots_lot val_bldg_lot named" "$@"
