@@ -437,6 +437,9 @@ def test_late_probe_repeats_the_rows_where_em_revisits(scored_data, capsys):
                                          "--revisit-repeat", "3", "--revisit-kind", "lot", "--set",
                                          "scene.building.nope=1", "--out", str(root / "lot.pt")], capsys)
     assert code == 2 and "scene.building.nope" in err.strip().splitlines()[-1]
+    code, _, err = run_main(LATE_PROBE, [str(root / "data"), "--arm", "all", "--set", "scene.building.lot_probability=1",
+                                         "--out", str(root / "lot.pt")], capsys)
+    assert code == 2 and "only --revisit-kind lot" in err.strip().splitlines()[-1]
 
 
 def test_late_probe_keeps_whole_episodes_for_a_fraction():

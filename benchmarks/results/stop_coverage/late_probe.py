@@ -146,6 +146,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--steps {args.steps} --late-from {args.late_from} --late-repeat {args.late_repeat} "
                      f"--revisit-repeat {args.revisit_repeat} --lr {args.lr}: give steps >= 1, late-from >= 0, "
                      "late-repeat >= 1, revisit-repeat >= 1 and a positive lr")
+    if args.set and args.revisit_kind != "lot":
+        parser.error(f"--set {' '.join(args.set)}: only --revisit-kind lot draws plans; drop --set or add it")
     if not (args.dataset / "dataset.json").is_file():
         parser.error(f"{args.dataset}: no dataset.json there; give a folder of benchmarks/collect_decisions.py")
 
