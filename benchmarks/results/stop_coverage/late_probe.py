@@ -29,6 +29,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "selection_v6"))
 from one_step import decision_index, held_out  # noqa: E402
+from revisit_choice import em_revisits  # noqa: E402
 from revisit_probe import greedy_learner  # noqa: E402
 
 START = "policies/buildings_sparse_em_choice/actor.pt"  # the default of sessions 35-57, every fine-tune's start
@@ -49,14 +50,6 @@ def repeated(rows: np.ndarray, chosen: np.ndarray, repeat: int) -> np.ndarray:
     """``rows`` with those where the boolean ``chosen`` (over all rows) holds appearing ``repeat`` times in all, so
     that uniform draws take them ``repeat`` times as often."""
     return np.concatenate([rows] + [rows[chosen[rows]]] * (repeat - 1))
-
-
-def em_revisits(stored, column: int) -> np.ndarray:
-    """Per stored decision (a dataset's rows): whether EM's choice revisits keyframes, i.e. its node's ``revisits``
-    feature (in ``x`` column ``column``) is above 0."""
-    import torch
-
-    return (stored["x"][torch.arange(len(stored)), stored["em_action"].long(), column] > 0).numpy()
 
 
 class BlindColumns:

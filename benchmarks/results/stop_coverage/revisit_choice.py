@@ -36,6 +36,14 @@ BOOTSTRAP = 2000
 REVISITS = "revisits"  # the node feature: keyframes the frontier's path revisits
 
 
+def em_revisits(stored, column: int) -> np.ndarray:
+    """Per stored decision (a dataset's rows): whether EM's choice revisits keyframes, i.e. its node's ``revisits``
+    feature (in ``x`` column ``column``) is above 0. Shared with ``late_probe.py --revisit-repeat``."""
+    import torch
+
+    return (stored["x"][torch.arange(len(stored)), stored["em_action"].long(), column] > 0).numpy()
+
+
 def chosen_revisits(dataset, actor, columns: list[int], rows: np.ndarray) -> dict[str, np.ndarray]:
     """Per row: whether EM's choice and the actor's greedy choice revisit, whether they agree, and whether any
     frontier of the decision revisits."""
@@ -52,10 +60,9 @@ def chosen_revisits(dataset, actor, columns: list[int], rows: np.ndarray) -> dic
             mask = batch["action_mask"]
             revisits = stored["x"][:, :mask.shape[1], revisit_column] > 0
             picked = actor(batch["x"], batch["adj"], batch["node_mask"]).masked_fill(~mask, -torch.inf).argmax(-1)
-            em = stored["em_action"].long()
-            out["em"].append(revisits.gather(1, em[:, None])[:, 0])
+            out["em"].append(torch.from_numpy(em_revisits(stored, revisit_column)))
             out["actor"].append(revisits.gather(1, picked[:, None])[:, 0])
-            out["agree"].append(picked == em)
+            out["agree"].append(picked == stored["em_action"].long())
             out["offered"].append((revisits & mask).any(-1))
     return {key: torch.cat(values).numpy() for key, values in out.items()}
 
