@@ -203,6 +203,17 @@ def test_by_kind_groups_the_per_building_ratios(tmp_path, capsys):
     assert code == 2 and len([line for line in err.splitlines() if "error:" in line]) == 1
 
 
+def test_rows_on_lots_marks_each_row_by_its_layouts_plan():
+    """by_kind.rows_on_lots: a row is on a lot exactly when its layout's plan is a parking lot (repeated layouts,
+    and a layout without a plan, which is not)."""
+    from explore_rl.scene.building import LOT
+
+    rows_on_lots = load_script(BY_KIND).rows_on_lots
+    plans = {3: {"corridor": LOT}, 5: {"corridor": "a corridor kind"}}
+    assert rows_on_lots(np.array([3, 5, 3, 7]), plans).tolist() == [True, False, True, False]
+    assert rows_on_lots(np.array([5]), plans).dtype == bool
+
+
 DIVERGENCE = "benchmarks/results/stop_coverage/divergence.py"
 
 

@@ -56,6 +56,13 @@ def lot_seeds(plans: dict[int, dict]) -> set[int]:
     return {seed for seed, stats in plans.items() if stats["corridor"] == LOT}
 
 
+def rows_on_lots(layouts: np.ndarray, plans: dict[int, dict]) -> np.ndarray:
+    """Per row of a dataset (its layout seed in ``layouts``): whether that layout's plan (of ``plan_stats``) is a
+    parking lot; a layout without a plan is not."""
+    lots = lot_seeds(plans)
+    return np.array([int(seed) in lots for seed in layouts], dtype=bool)
+
+
 def geometric_mean(ratios: np.ndarray, seed: int = 0) -> tuple[float, list[float]]:
     """Geometric mean of ``ratios`` and its bootstrap 95 % interval over them."""
     logs = np.log(ratios)

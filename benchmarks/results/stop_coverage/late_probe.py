@@ -104,10 +104,9 @@ def episode_fraction(rows: np.ndarray, episodes: np.ndarray, fraction: float, se
 def on_lots(layouts: np.ndarray, overrides: list[str]) -> np.ndarray:
     """Per row: whether its layout's plan (the building family under ``overrides``, e.g. a collection's lot kind)
     is a parking lot."""
-    from by_kind import lot_seeds, plan_stats
+    from by_kind import plan_stats, rows_on_lots
 
-    lots = lot_seeds(plan_stats(sorted(set(int(s) for s in layouts)), overrides))
-    return np.array([int(s) in lots for s in layouts], dtype=bool)
+    return rows_on_lots(layouts, plan_stats(sorted(set(int(s) for s in layouts)), overrides))
 
 
 def main(argv: list[str] | None = None) -> None:

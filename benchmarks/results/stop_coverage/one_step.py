@@ -36,7 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from by_kind import lot_seeds, plan_stats  # noqa: E402
+from by_kind import plan_stats, rows_on_lots  # noqa: E402
 from common import cluster_bootstrap  # noqa: E402  (the episode is what is resampled)
 
 BOOTSTRAP = 2000
@@ -227,8 +227,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--set: {error}")
     area = {seed: stats["area"] for seed, stats in plans.items()}
     areas = np.array([area.get(int(s), np.nan) for s in episodes[:, 0]])  # NaN: a layout not scored
-    lot = lot_seeds(plans)
-    lots = np.array([int(s) in lot for s in episodes[:, 0]]) if lot else None
+    lots = rows_on_lots(episodes[:, 0], plans)
+    lots = lots if lots.any() else None
     frontiers = stored["action_mask"].sum(-1).numpy()
     groups = decision_groups(index, areas, [area[s] for s in layouts], frontiers, args.bands, args.frontiers, lots)
     for name, rows in groups.items():

@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from by_kind import lot_seeds, plan_stats  # noqa: E402
+from by_kind import plan_stats, rows_on_lots  # noqa: E402
 from common import cluster_bootstrap  # noqa: E402
 from one_step import CHUNK, held_out  # noqa: E402
 
@@ -129,8 +129,7 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as error:  # a bad override, in one line
         parser.error(f"--set: {error}")
     choice = chosen_revisits(dataset, actor.eval(), columns, scored)
-    lots = lot_seeds(plans)
-    is_lot = np.array([int(s) in lots for s in episodes[scored, 0]])
+    is_lot = rows_on_lots(episodes[scored, 0], plans)
     for name, kind in (("lot", is_lot), ("building", ~is_lot)):
         rows = np.flatnonzero(kind & choice["offered"])
         if len(rows):

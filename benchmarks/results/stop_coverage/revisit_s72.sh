@@ -15,6 +15,9 @@
 #             (/work/runs/stop85_glotsL3_learned) and dagger73_val90 (/work/runs/stop85_dagger73_val90)
 #   named    plan step 8: the validation choice (the lot-only arm) in the street and the garage, 50 trials each
 #            (/work/runs/stop85_street_garage_lotrevisit72; SETS=street_garage50_lotrevisit72 study.sh)
+#   named_garage  session 73: the garage alone, for a named run whose street finished and whose garage was cut (its
+#            partial log belongs to the sweep's config, so it cannot resume outside the sweep): 50 new trials into
+#            /work/runs/stop85_garage_lotrevisit72/0_garage, then moved to the named run's 1_garage
 #   bash revisit_s72.sh revisit train screen val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -69,4 +72,11 @@ stage_named() {
   SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$LOT_ACTOR" OUT=/work/runs/stop85_street_garage_lotrevisit72 \
     bash $HERE/street_garage.sh
 }
-run_stages "revisit train screen val_lots val_bldg train_lot screen_lot val_lots_lot val_bldg_lot named" "$@"
+stage_named_garage() {
+  local named=/work/runs/stop85_street_garage_lotrevisit72 alone=/work/runs/stop85_garage_lotrevisit72
+  [ -e $named/0_street/trials.jsonl ] || { echo "$named/0_street has no finished street: run the stage named" >&2; exit 2; }
+  SCENES=garage SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$LOT_ACTOR" OUT=$alone \
+    bash $HERE/street_garage.sh
+  rm -rf $named/1_garage && mv $alone/0_garage $named/1_garage
+}
+run_stages "revisit train screen val_lots val_bldg train_lot screen_lot val_lots_lot val_bldg_lot named named_garage" "$@"
