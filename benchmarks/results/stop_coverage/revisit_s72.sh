@@ -68,15 +68,15 @@ stage_val_lots_lot() { garage_like_lots 1050 1139 glotsL3 "policy.checkpoint=$LO
 stage_val_bldg_lot() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger73_val90 EXTRA="policy.checkpoint=$LOT_ACTOR"
 }
-stage_named() {
-  SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$LOT_ACTOR" OUT=/work/runs/stop85_street_garage_lotrevisit72 \
+named_run() {  # named_run OUT [SCENES]: the lot-only arm, 50 trials per scene of street_garage.sh (default both)
+  SCENES=${2:-street,garage} SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$LOT_ACTOR" OUT=$1 \
     bash $HERE/street_garage.sh
 }
+stage_named() { named_run /work/runs/stop85_street_garage_lotrevisit72; }
 stage_named_garage() {
   local named=/work/runs/stop85_street_garage_lotrevisit72 alone=/work/runs/stop85_garage_lotrevisit72
   [ -e $named/0_street/trials.jsonl ] || { echo "$named/0_street has no finished street: run the stage named" >&2; exit 2; }
-  SCENES=garage SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$LOT_ACTOR" OUT=$alone \
-    bash $HERE/street_garage.sh
+  named_run $alone garage
   rm -rf $named/1_garage && mv $alone/0_garage $named/1_garage
 }
 run_stages "revisit train screen val_lots val_bldg train_lot screen_lot val_lots_lot val_bldg_lot named named_garage" "$@"
