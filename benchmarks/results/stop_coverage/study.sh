@@ -20,7 +20,7 @@
 # X_test2 and X_test3 pooled against EM (2020-2419; descriptive, study_X_test400.log, by_coverage_X_test400.log).
 # Session 65's next fresh pool 2420-2619: runs/test4 (EM, /work/runs/stop85_test4) and a variant's X_test4 (joined with
 # runs/test4's EM like the _test3 sets), for the next candidate chosen on validation. Session 71's pool 2620-2819:
-# runs/test5 (EM, /work/runs/stop85_test5) and X_test5 the same way.
+# runs/test5 (EM, /work/runs/stop85_test5) and X_test5 the same way; session 74's pool 2820-3019: runs/test6 and X_test6.
 # Street and garage (street_garage.sh, /work/runs/stop85_street_garage): study_street_garage.log, targets_street_garage.
 # Session 69's garage-like validation pool lots_val (lots_s69.sh: sparse-lot buildings, EM and the default in one run).
 # Session 70's garage-like lots glots_val (plan.md session 70 step 2b): the default's trials of
@@ -168,12 +168,12 @@ held_out_pooled() {
   $STUDY $dirs --pool ${1}_$2 --out $HERE/targets_${1}_$2 > $HERE/study_${1}_$2.log
   $PY $HERE/by_coverage.py $dirs --coverages $COVERAGES > $HERE/by_coverage_${1}_$2.log
 }
-PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_*_test4 stop85_*_test5 stop85_blind*_val90 stop85_gate*_val stop85_icp*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
+PRIORS=$(cd /work/runs && ls -d stop85_prior*_val stop85_prior*_val90 stop85_prior*_test stop85_prior*_test2 stop85_prior*_test3 stop85_nodes*_val90 stop85_nodes*_test stop85_dagger*_val stop85_dagger*_val90 stop85_dagger*_test stop85_dagger*_test2 stop85_dagger*_test3 stop85_*_test4 stop85_*_test5 stop85_*_test6 stop85_blind*_val90 stop85_gate*_val stop85_icp*_val90 stop85_street_garage_?* stop85_baselines_test 2>/dev/null | sed 's/^stop85_//' || true)
 for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
   case $SET in
     *_test200) held_out_pooled ${SET%_test200} test200 "test test2"; continue;;
     *_test400) held_out_pooled ${SET%_test400} test400 "test test2 test3"; continue;;
-    test2|test3|test4|test5) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
+    test2|test3|test4|test5|test6) keep /work/runs/stop85_$SET $HERE/runs/$SET; continue;;  # EM's trials alone: the variants' reference
     street_garage) street_garage; continue;;
     street_garage50) street_garage50; continue;;
     street_garage50_*) street_garage50_variant ${SET#street_garage50_}; continue;;
