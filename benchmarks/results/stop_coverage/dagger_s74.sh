@@ -15,6 +15,8 @@
 #             SETS=glots74_val90 study.sh, REFS=glots_val90 direct.sh glots74_val90)
 #   val_bldg  the new actor on the 90 validation buildings 1010-1099 (/work/runs/stop85_dagger74_val90;
 #             SETS=dagger74_val90 study.sh, REFS=dagger9k_val90 direct.sh dagger74_val90)
+#   named     session 75 (plan.md step 5, if both parts of step 4 hold): the new actor in the street and the garage, 50
+#             trials each, seeds 0-49 (/work/runs/stop85_street_garage_dagger74; SETS=street_garage50_dagger74 study.sh)
 #   bash dagger_s74.sh collect train screen val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -44,4 +46,8 @@ stage_val_lots() { garage_like_lots 1050 1139 glots74 "policy.checkpoint=$ACTOR"
 stage_val_bldg() {
   stop85 POLICIES=[learned] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_dagger74_val90 EXTRA="policy.checkpoint=$ACTOR"
 }
-run_stages "collect train screen val_lots val_bldg" "$@"
+stage_named() {
+  SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$ACTOR" OUT=/work/runs/stop85_street_garage_dagger74 \
+    bash $HERE/street_garage.sh
+}
+run_stages "collect train screen val_lots val_bldg named" "$@"
