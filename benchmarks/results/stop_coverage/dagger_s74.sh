@@ -17,6 +17,9 @@
 #             SETS=dagger74_val90 study.sh, REFS=dagger9k_val90 direct.sh dagger74_val90)
 #   named     session 75 (plan.md step 5, if both parts of step 4 hold): the new actor in the street and the garage, 50
 #             trials each, seeds 0-49 (/work/runs/stop85_street_garage_dagger74; SETS=street_garage50_dagger74 study.sh)
+#   em_replicate  session 75 (plan.md's addendum, policy-independent): EM a second time on the 90 validation buildings
+#             1010-1099 with the next trial's noise seed (evaluate.first_trial=1; /work/runs/stop85_em_replicate_val90),
+#             against its stored trials of runs/val and runs/val2: em_replicate_val90.log, targets_em_replicate_val90
 #   bash dagger_s74.sh collect train screen val_lots val_bldg
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -50,4 +53,7 @@ stage_named() {
   SEED=0 TRIALS=50 POLICIES=[learned] EXTRA="policy.checkpoint=$ACTOR" OUT=/work/runs/stop85_street_garage_dagger74 \
     bash $HERE/street_garage.sh
 }
-run_stages "collect train screen val_lots val_bldg named" "$@"
+stage_em_replicate() {
+  stop85 POLICIES=[em] FIRST=1010 LAST=1099 OUT=/work/runs/stop85_em_replicate_val90 EXTRA="evaluate.first_trial=1"
+}
+run_stages "collect train screen val_lots val_bldg named em_replicate" "$@"
