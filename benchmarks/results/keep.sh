@@ -73,3 +73,18 @@ garage_like_lots() {
   SIZE=[28,32] LANE=[2.0,4.5] PITCH=[5.5,6.5] GAP=0.05 POLICIES=[learned] FIRST=$1 LAST=$2 \
     OUT=/work/runs/stop85_$3_learned EXTRA="${4:-}" bash $RESULTS/stop_coverage/lots_s69.sh
 }
+
+# split_by_reference SPLIT TRIALS RUNS REF...: TRIALS's buildings (a runs folder of building_SEED/) linked into
+# SPLIT/REF for each reference folder RUNS/REF that has the same building, one report folder per reference, as
+# study_zero_shot.py --reference pairs them (direct.sh, stop_coverage/noise_floor_s75.sh)
+split_by_reference() {
+  local split=$1 trials=$2 runs=$3 ref d b; shift 3
+  for ref in "$@"; do
+    mkdir -p $split/$ref
+    for d in $runs/$ref/building_*/; do
+      b=$(basename $d)
+      [ -e $trials/$b/trials.jsonl ] && ln -s $trials/$b $split/$ref/$b
+    done
+  done
+  return 0
+}

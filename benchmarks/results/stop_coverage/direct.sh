@@ -12,13 +12,7 @@ SET=${1:?"give the set, e.g. bash direct.sh nodes512_val90"}
 [ -d $HERE/runs/$SET ] || { echo "runs/$SET: not there; run SETS=$SET study.sh first" >&2; exit 2; }
 [ -n "$REFS" ] || case $SET in *_test) REFS="test";; *) REFS="val val2";; esac  # held-out sets: runs/test's default
 SPLIT=$(mktemp -d)
-for ref in $REFS; do  # one report per reference folder, as study_zero_shot.py pairs them
-  mkdir -p $SPLIT/$ref
-  for d in $HERE/runs/$ref/building_*/; do
-    b=$(basename $d)
-    [ -e $HERE/runs/$SET/$b/trials.jsonl ] && ln -s $HERE/runs/$SET/$b $SPLIT/$ref/$b
-  done
-done
+split_by_reference $SPLIT $HERE/runs/$SET $HERE/runs $REFS
 $PY $RESULTS/../study_zero_shot.py $(for r in $REFS; do echo $SPLIT/$r; done) --reference $(for r in $REFS; do echo $HERE/runs/$r; done) \
   --reference-policy learned --pool ${SET}${TAG}_direct --out $HERE/targets_${SET}${TAG}_direct > $HERE/direct_$SET$TAG.log
 rm -rf $SPLIT

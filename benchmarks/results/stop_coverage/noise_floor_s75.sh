@@ -9,13 +9,7 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 source $HERE/../keep.sh
 keep /work/runs/stop85_em_replicate_val90 $HERE/runs/em_replicate_val90
 SPLIT=$(mktemp -d)
-for ref in val val2; do  # one report folder per reference folder, as study_zero_shot.py pairs them
-  mkdir -p $SPLIT/$ref
-  for d in $HERE/runs/em_replicate_val90/building_*/; do
-    b=$(basename $d)
-    [ -e $HERE/runs/$ref/$b/trials.jsonl ] && ln -s $d $SPLIT/$ref/$b
-  done
-done
+split_by_reference $SPLIT $HERE/runs/em_replicate_val90 $HERE/runs val val2
 $PY $RESULTS/../study_zero_shot.py $SPLIT/val $SPLIT/val2 --reference $HERE/runs/val $HERE/runs/val2 \
   --policy em --reference-policy em --pool em_replicate_val90 --out $HERE/targets_em_replicate_val90 \
   > $HERE/em_replicate_val90.log
