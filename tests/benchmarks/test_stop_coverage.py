@@ -730,3 +730,74 @@ def test_revisit_choice_rates_by_hand(scored_data, capsys):
     code, _, err = run_main(REVISIT_CHOICE, [str(root / "data"), "--actor", str(actor_path), "--set",
                                              "scene.building.nope=1"], capsys)
     assert code == 2 and "scene.building.nope" in err.strip().splitlines()[-1]
+
+
+NOISE_PARTS = "benchmarks/results/stop_coverage/noise_parts.py"
+
+
+def timed_trial(policy: str, seed: int, error: float, metres: float) -> dict:
+    """:func:`travelled_trial` with a decision time, as explore-rl-eval records it."""
+    return {**travelled_trial(policy, seed, error, metres), "ms_decide": 1.0}
+
+
+def write_building(folder, seed: int, trials: list[dict]) -> None:
+    path = folder / f"building_{seed}"
+    path.mkdir(parents=True)
+    path.joinpath("trials.jsonl").write_text("".join(json.dumps(t) + "\n" for t in trials))
+
+
+def test_noise_parts_splits_the_spread_into_trial_noise_and_the_rest(tmp_path, capsys):
+    # EM's two trials of building b: map errors 0.1 e^{+d_b} and 0.1 e^{-d_b} (one trial's log variance: 2 var(d));
+    # the variant 0.1 e^{0.2} everywhere (a log ratio of 0.2 with no spread); building 9 lacks the variant
+    offsets = [0.1, -0.3, 0.25, 0.0, 0.4]
+    for seed, d in enumerate(offsets):
+        write_building(tmp_path / "first", seed, [timed_trial("em", seed, 0.1 * np.exp(d), 80.0)])
+        write_building(tmp_path / "second", seed, [timed_trial("em", seed, 0.1 * np.exp(-d), 80.0)])
+        write_building(tmp_path / "mine", seed, [timed_trial("learned", seed, 0.1 * np.exp(0.2), 80.0),
+                                                 timed_trial("em", seed, 9.0, 80.0)])
+    write_building(tmp_path / "first", 9, [timed_trial("em", 9, 0.1, 80.0)])
+    write_building(tmp_path / "second", 9, [timed_trial("em", 9, 0.1, 80.0)])
+    scene = tmp_path / "scene.jsonl"
+    scene.write_text("".join(json.dumps(timed_trial("em", s, e, 80.0)) + "\n" for s, e in enumerate((1, 2, 3))))
+    code, out, _ = run_main(NOISE_PARTS, ["--em-first", str(tmp_path / "first"), "--em-second",
+                                          str(tmp_path / "second"), "--variant", f"mine={tmp_path / 'mine'}",
+                                          "--scene", f"s={scene}"], capsys)
+    pool, variant, scene_line, plan = json_lines(out)
+    noise = 2 * np.var(offsets, ddof=1)
+    assert code == 0 and pool["buildings"] == 5 and variant["buildings"] == 5
+    assert pool["em_one_trial_log_error_sd"] == pytest.approx(np.sqrt(noise), abs=1e-4)
+    assert pool["em_one_trial_log_travel_sd"] == 0.0
+    assert variant["error_ratio_geomean"] == pytest.approx(np.exp(0.2), abs=1e-4)
+    assert variant["log_error_ratio_sd"] == pytest.approx(0.0, abs=1e-4)
+    assert variant["excess_variance"] == pytest.approx(-1.5 * noise, abs=1e-4)
+    assert scene_line["map_error_cv"] == 0.5 and scene_line["travel_cv"] == 0.0 and scene_line["trials"] == 3
+    assert plan["buildings"]["1.00"]["one_em_trial"] > plan["buildings"]["1.00"]["two_em_trials"]
+    assert plan["buildings"]["1.05"]["one_em_trial"] > plan["buildings"]["1.00"]["one_em_trial"]
+    # CV 0.5: 3 EM trials alone exceed the allowed variance (log 1.1 / 1.96)^2 = 0.002365; against 200 it leaves
+    # 0.002365 - 0.25 / 200 = 0.001115, so 0.25 / 0.001115 = 224.2 trials
+    assert plan["scenes"]["s"]["1.00"] == {"vs_3_em": None, "vs_200_em": 225}
+
+
+def test_noise_parts_planning_figures_by_hand():
+    module = load_script(NOISE_PARTS)
+    # (1.96 * 0.3 * sqrt(2) / log 1.1)^2 = 76.1 buildings
+    assert module.units_needed(0.3, 1.0, 1.0) == 77
+    assert module.units_needed(0.3, 1.0, 0.5) == 58
+    # CV 0.2 against 200 EM trials: (log 1.1 / 1.96)^2 = 0.002365, minus 0.04 / 200 leaves 0.002165: 18.5 trials
+    assert module.trials_needed(0.2, 1.0, 200) == 19
+    assert module.trials_needed(0.2, 1.0, 10) is None  # the reference alone is too noisy
+
+
+def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
+    for seed in range(2):
+        write_building(tmp_path / "first", seed, [timed_trial("em", seed, 0.1, 80.0)])
+        write_building(tmp_path / "second", seed, [timed_trial("em", seed, 0.1, 80.0)])
+    base = ["--em-first", str(tmp_path / "first"), "--em-second", str(tmp_path / "second")]
+    for args, message in ((["--em-first", str(tmp_path / "none"), "--em-second", str(tmp_path)], "not a folder"),
+                          (base + ["--variant", "mine"], "give NAME=PATH"),
+                          (base + ["--variant", f"a={tmp_path}", "--variant", f"a={tmp_path}"], "share a NAME"),
+                          (base + ["--scene", f"s={tmp_path / 'none.jsonl'}"], "is no file"),
+                          (base, "2 building(s)")):
+        code, _, err = run_main(NOISE_PARTS, args, capsys)
+        errors = [line for line in err.splitlines() if "error:" in line]
+        assert code == 2 and len(errors) == 1 and message in errors[0], (args, err)
