@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Session 76 (plan.md's addendum of 07:40 UTC; descriptive): noise_parts.py on the 90 validation buildings where EM
+# Session 76 (plan.md's addendum of 07:14 UTC; descriptive): noise_parts.py on the 90 validation buildings where EM
 # ran twice (runs/val, runs/val2 and runs/em_replicate_val90), with eight validation variants and the named scenes'
 # 50 EM trials (runs/street_garage50): noise_parts_s76.log.
 set -e
