@@ -142,6 +142,31 @@ street_garage50_variant() {
   $STUDY $HERE/runs/$set --reference $HERE/runs/street_garage50 --reference-policy learned --out $HERE/targets_${set}_direct \
     > $HERE/direct_$set.log
 }
+# street_garage200_variant NAME (session 76, plan.md's addendum of 07:17 UTC): a candidate's learned-only trials of
+# /work/runs/stop85_street_garage_NAME (street_garage.sh with SEED=0 TRIALS=120 and EXTRA) joined, scene by scene,
+# with EM's 200 trials there: seeds 0-49 of runs/street_garage50 and 50-199 of runs/named200_em
+# (named200_keep_s76.sh). A scene is read only when EM's 200 trials and the candidate's 120 are all there:
+# runs/street_garage200_NAME, study_street_garage200_NAME.log
+street_garage200_variant() {
+  local set=street_garage200_$1 name src em mine
+  for name in 0_street 1_garage; do
+    src=$(ls -d /work/runs/stop85_street_garage_$1/*_${name#*_} 2>/dev/null | head -1)
+    [ -n "$src" ] && [ -e $src/trials.jsonl ] || continue
+    em=$(cat $HERE/runs/street_garage50/$name/trials.jsonl $HERE/runs/named200_em/$name/trials.jsonl 2>/dev/null \
+      | grep -c '"policy": "em"' || true)
+    mine=$(grep -c '"policy": "learned"' $src/trials.jsonl || true)
+    if [ $em -lt 200 ] || [ $mine -lt 120 ]; then
+      echo "$set $name: EM has $em of its 200 trials and the candidate $mine of its 120; not read" >&2; continue
+    fi
+    mkdir -p $HERE/runs/$set/$name
+    { grep '"policy": "learned"' $src/trials.jsonl
+      grep '"policy": "em"' $HERE/runs/street_garage50/$name/trials.jsonl
+      cat $HERE/runs/named200_em/$name/trials.jsonl
+    } > $HERE/runs/$set/$name/trials.jsonl
+  done
+  [ -d $HERE/runs/$set ] || return 0
+  $STUDY $HERE/runs/$set --out $HERE/targets_$set > $HERE/study_$set.log
+}
 # baselines_test: nearest frontier's and random's trials of /work/runs/stop85_baselines_test (ship_s58.sh baselines,
 # session 58) with EM's of runs/test and the shipped default's of runs/dagger9k_test, building by building:
 # runs/baselines_test/summary.md, one table of all four policies (explore_rl.comparison.combine)
@@ -177,6 +202,7 @@ for SET in ${SETS:-val val2 test test2 test3 $PRIORS street_garage}; do
     street_garage) street_garage; continue;;
     street_garage50) street_garage50; continue;;
     street_garage50_*) street_garage50_variant ${SET#street_garage50_}; continue;;
+    street_garage200_*) street_garage200_variant ${SET#street_garage200_}; continue;;
     street_garage_late150) continue;;  # 50 trials: the set street_garage50_late150 studies it
     street_garage_prior004) continue;;  # 50 garage trials (session 70): the set street_garage50_prior004 studies it
     street_garage_baselines) continue;;
