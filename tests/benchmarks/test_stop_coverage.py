@@ -776,6 +776,12 @@ def test_noise_parts_splits_the_spread_into_trial_noise_and_the_rest(tmp_path, c
     # CV 0.5: 3 EM trials alone exceed the allowed variance (log 1.1 / 1.96)^2 = 0.002365; against 200 it leaves
     # 0.002365 - 0.25 / 200 = 0.001115, so 0.25 / 0.001115 = 224.2 trials
     assert plan["scenes"]["s"]["1.00"] == {"vs_3_em": None, "vs_200_em": 225}
+    # travel has no noise here: the screen and the rule are steps at the true ratio
+    assert plan["screen"]["travel"]["1.00"] == {"passes_screen": 1.0, "passes_test": 1.0, "both": 1.0}
+    assert plan["screen"]["travel"]["1.05"] == {"passes_screen": 0.0, "passes_test": 1.0, "both": 0.0}
+    error = plan["screen"]["map_error"]
+    assert error["1.00"]["passes_screen"] > error["1.05"]["passes_screen"] > error["1.10"]["passes_screen"] > 0
+    assert plan["screen"]["s_map_error"]["1.00"] > plan["screen"]["s_map_error"]["1.05"]
 
 
 def test_noise_parts_planning_figures_by_hand():
@@ -786,6 +792,16 @@ def test_noise_parts_planning_figures_by_hand():
     # CV 0.2 against 200 EM trials: (log 1.1 / 1.96)^2 = 0.002365, minus 0.04 / 200 leaves 0.002165: 18.5 trials
     assert module.trials_needed(0.2, 1.0, 200) == 19
     assert module.trials_needed(0.2, 1.0, 10) is None  # the reference alone is too noisy
+    # sd 0.36, 90 buildings: the pooled log ratio's sd is 0.36 sqrt(2 / 90) = 0.05367; a true ratio of 1.00 lies
+    # below log 1.03 = 0.02956 with P(Z <= 0.5508) = 0.709; on 200 buildings (sd 0.036) the upper bound 1.96 sd
+    # above the pooled ratio lies below log 1.1 = 0.09531 when it is at most 0.02475: P(Z <= 0.6875) = 0.754
+    chances = module.pass_probabilities(0.36, 1.0, 1.03, 90, 200)
+    assert chances["passes_screen"] == pytest.approx(0.709, abs=1e-3)
+    assert chances["passes_test"] == pytest.approx(0.754, abs=1e-3)
+    assert chances["both"] == pytest.approx(0.709 * 0.754, abs=2e-3)
+    # CV 0.4, 120 trials against 200: sd 0.4 sqrt(1/120 + 1/200) = 0.04619; the upper bound passes when the pooled
+    # log ratio is at most 0.09531 - 1.96 x 0.04619 = 0.004779: P(Z <= 0.1035) = 0.541
+    assert module.scene_pass_probability(0.4, 1.0, 120, 200) == pytest.approx(0.541, abs=1e-3)
 
 
 def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
@@ -797,6 +813,9 @@ def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
                           (base + ["--variant", "mine"], "give NAME=PATH"),
                           (base + ["--variant", f"a={tmp_path}", "--variant", f"a={tmp_path}"], "share a NAME"),
                           (base + ["--scene", f"s={tmp_path / 'none.jsonl'}"], "is no file"),
+                          (base + ["--screen", "0"], "give a positive ratio"),
+                          (base + ["--test-buildings", "0"], "at least 1 building"),
+                          (base + ["--scene-trials", "0"], "at least 1 building or trial"),
                           (base, "2 building(s)")):
         code, _, err = run_main(NOISE_PARTS, args, capsys)
         errors = [line for line in err.splitlines() if "error:" in line]

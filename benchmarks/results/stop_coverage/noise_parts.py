@@ -13,7 +13,12 @@ trial's map error and travel at the trials' common coverage, the ratio-of-means 
 Last line, the planning table: how many buildings (one trial per policy, against one or two EM trials) and how
 many trials per scene (against the given scenes' own number of EM trials, and against 200) put the upper 95 %
 bound of the map-error ratio at or below 1.10 if the true ratio is 1.00, 1.03 or 1.05 (normal approximation in
-log; a planning figure, not a result).
+log; a planning figure, not a result). Its ``screen`` part (session 77) gives, from the same one-trial noise, the
+probability that a candidate of true ratio 0.90-1.10 passes session 76's validation screen (point estimate <=
+``--screen`` on ``--validation-buildings``, one trial each against EM's one) and then the held-out rule (upper bound
+<= 1.10 on ``--test-buildings``), for map error and travel apart, and that it passes the rule in each ``--scene``
+with ``--scene-trials`` of its own against ``--scene-reference`` of EM's (the scene's coefficient of variation for
+both). The building counts above are where the expected upper bound meets 1.10: about even odds, not a sure pass.
 
     python benchmarks/results/stop_coverage/noise_parts.py --em-first runs/val runs/val2 \
         --em-second runs/em_replicate_val90 --variant dagger9k=runs/dagger9k_val90 \
@@ -35,6 +40,7 @@ from explore_rl.comparison import read_trials
 COVERAGE = 0.85  # the protocol's stop coverage
 BOUND = 1.10  # the issue's ratio target
 TRUE_RATIOS = (1.00, 1.03, 1.05)
+SCREEN_RATIOS = (0.90, 0.95, 1.00, 1.03, 1.05, 1.10)  # the true ratios the screen's pass probabilities are given for
 Z95 = 1.96
 RESAMPLES = 2000
 
@@ -127,6 +133,49 @@ def trials_needed(cv: float, true_ratio: float, reference_trials: int) -> int | 
     return int(math.ceil(cv ** 2 / left)) if left > 0 else None
 
 
+def chance_at_most(limit: float, truth: float, sd: float) -> float:
+    """P(X <= limit) for X normal about ``truth`` with ``sd`` (a step where the sd is 0)."""
+    if sd == 0:
+        return float(truth <= limit)
+    return 0.5 * (1.0 + math.erf((limit - truth) / (sd * math.sqrt(2.0))))
+
+
+def pass_probabilities(sd_one: float, true_ratio: float, screen: float, validation: int, test: int) -> dict:
+    """The chance that a candidate of ``true_ratio`` passes the screen (its pooled log ratio over ``validation``
+    buildings at or below log ``screen``) and the held-out rule (the upper 95 % bound over ``test`` buildings at or
+    below log ``BOUND``), one trial per building and policy (normal approximation in log)."""
+    def spread(buildings: int) -> float:
+        return sd_one * math.sqrt(2.0 / buildings)
+
+    truth = math.log(true_ratio)
+    screen_p = chance_at_most(math.log(screen), truth, spread(validation))
+    test_p = chance_at_most(math.log(BOUND) - Z95 * spread(test), truth, spread(test))
+    return {"passes_screen": round(screen_p, 3), "passes_test": round(test_p, 3), "both": round(screen_p * test_p, 3)}
+
+
+def scene_pass_probability(cv: float, true_ratio: float, trials: int, reference_trials: int) -> float:
+    """The chance that the ratio of means over ``trials`` against ``reference_trials`` of EM's (both with the
+    coefficient of variation ``cv``) has its upper 95 % bound at or below ``BOUND`` (normal approximation in log)."""
+    sd = cv * math.sqrt(1.0 / trials + 1.0 / reference_trials)
+    return round(chance_at_most(math.log(BOUND) - Z95 * sd, math.log(true_ratio), sd), 3)
+
+
+def screen_table(noise_sd: np.ndarray, screen: float, validation: int, test: int, scenes: list[dict],
+                 scene_trials: int, scene_reference: int) -> dict:
+    """:func:`pass_probabilities` for travel and map error apart (their log sds ``noise_sd``) at each true ratio,
+    and :func:`scene_pass_probability` of the map error in each scene."""
+    table = {"screen": screen, "validation_buildings": validation, "test_buildings": test,
+             "scene_trials": scene_trials, "scene_reference_trials": scene_reference}
+    for column, name in enumerate(("travel", "map_error")):
+        table[name] = {f"{r:.2f}": pass_probabilities(float(noise_sd[column]), r, screen, validation, test)
+                       for r in SCREEN_RATIOS}
+    for scene in scenes:
+        table[f"{scene['scene']}_map_error"] = {
+            f"{r:.2f}": scene_pass_probability(scene["map_error_cv"], r, scene_trials, scene_reference)
+            for r in SCREEN_RATIOS}
+    return table
+
+
 def planning(noise_sd: float, scenes: list[dict]) -> dict:
     table = {"bound": BOUND, "em_one_trial_log_error_sd": round(noise_sd, 4), "buildings": {}, "scenes": {}}
     for r in TRUE_RATIOS:
@@ -155,7 +204,17 @@ def main(argv: list[str] | None = None) -> None:
                         type=lambda t: named(t, "--variant"), help="a variant's learned trials on the same buildings")
     parser.add_argument("--scene", action="append", default=[], metavar="NAME=FILE[:POLICY]",
                         type=lambda t: named(t, "--scene"), help="a named scene's trials.jsonl (default policy em)")
+    parser.add_argument("--screen", type=float, default=1.03, help="the validation screen's point-estimate limit")
+    parser.add_argument("--validation-buildings", type=int, default=90, help="buildings the screen reads")
+    parser.add_argument("--test-buildings", type=int, default=200, help="buildings of the held-out pool")
+    parser.add_argument("--scene-trials", type=int, default=120, help="a candidate's trials per named scene")
+    parser.add_argument("--scene-reference", type=int, default=200, help="EM's trials per named scene")
     args = parser.parse_args(argv)
+    if args.screen <= 0:
+        parser.error(f"--screen {args.screen}: give a positive ratio (session 76's screen: 1.03)")
+    if min(args.validation_buildings, args.test_buildings, args.scene_trials, args.scene_reference) < 1:
+        parser.error("--validation-buildings, --test-buildings, --scene-trials and --scene-reference: give at "
+                     "least 1 building or trial each")
     for folder in [*args.em_first, args.em_second, *(Path(f) for _, f in args.variant)]:
         if not folder.is_dir():
             parser.error(f"{folder}: not a folder; give a folder of building_SEED/trials.jsonl")
@@ -181,7 +240,10 @@ def main(argv: list[str] | None = None) -> None:
         print(json.dumps(variant_entry(name, mine, em_a, em_b, rng)))
     for scene in scenes:
         print(json.dumps(scene))
-    print(json.dumps(planning(math.sqrt(noise[1]), scenes)))
+    table = planning(math.sqrt(noise[1]), scenes)
+    table["screen"] = screen_table(np.sqrt(noise), args.screen, args.validation_buildings, args.test_buildings,
+                                   scenes, args.scene_trials, args.scene_reference)
+    print(json.dumps(table))
 
 
 if __name__ == "__main__":
