@@ -802,6 +802,10 @@ def test_noise_parts_planning_figures_by_hand():
     # CV 0.4, 120 trials against 200: sd 0.4 sqrt(1/120 + 1/200) = 0.04619; the upper bound passes when the pooled
     # log ratio is at most 0.09531 - 1.96 x 0.04619 = 0.004779: P(Z <= 0.1035) = 0.541
     assert module.scene_pass_probability(0.4, 1.0, 120, 200) == pytest.approx(0.541, abs=1e-3)
+    # two trials per held-out building and policy: sd 0.36 / sqrt(200) = 0.02546, the pooled ratio may be at most
+    # 0.09531 - 1.96 x 0.02546 = 0.04542: P(Z <= 1.784) = 0.963; the screen is unchanged
+    twice = module.pass_probabilities(0.36, 1.0, 1.03, 90, 200, test_trials=2)
+    assert twice["passes_test"] == pytest.approx(0.963, abs=1e-3) and twice["passes_screen"] == chances["passes_screen"]
 
 
 def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
@@ -816,6 +820,7 @@ def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
                           (base + ["--screen", "0"], "give a positive ratio"),
                           (base + ["--test-buildings", "0"], "at least 1 building"),
                           (base + ["--scene-trials", "0"], "at least 1 building or trial"),
+                          (base + ["--test-trials", "0"], "at least 1 building or trial"),
                           (base, "2 building(s)")):
         code, _, err = run_main(NOISE_PARTS, args, capsys)
         errors = [line for line in err.splitlines() if "error:" in line]

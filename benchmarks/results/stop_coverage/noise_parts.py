@@ -16,7 +16,7 @@ bound of the map-error ratio at or below 1.10 if the true ratio is 1.00, 1.03 or
 log; a planning figure, not a result). Its ``screen`` part (session 77) gives, from the same one-trial noise, the
 probability that a candidate of true ratio 0.90-1.10 passes session 76's validation screen (point estimate <=
 ``--screen`` on ``--validation-buildings``, one trial each against EM's one) and then the held-out rule (upper bound
-<= 1.10 on ``--test-buildings``), for map error and travel apart, and that it passes the rule in each ``--scene``
+<= 1.10 on ``--test-buildings`` with ``--test-trials`` per building and policy), for map error and travel apart, and that it passes the rule in each ``--scene``
 with ``--scene-trials`` of its own against ``--scene-reference`` of EM's (the scene's coefficient of variation for
 both). The building counts above are where the expected upper bound meets 1.10: about even odds, not a sure pass.
 
@@ -140,16 +140,19 @@ def chance_at_most(limit: float, truth: float, sd: float) -> float:
     return 0.5 * (1.0 + math.erf((limit - truth) / (sd * math.sqrt(2.0))))
 
 
-def pass_probabilities(sd_one: float, true_ratio: float, screen: float, validation: int, test: int) -> dict:
+def pass_probabilities(sd_one: float, true_ratio: float, screen: float, validation: int, test: int,
+                       test_trials: int = 1) -> dict:
     """The chance that a candidate of ``true_ratio`` passes the screen (its pooled log ratio over ``validation``
-    buildings at or below log ``screen``) and the held-out rule (the upper 95 % bound over ``test`` buildings at or
-    below log ``BOUND``), one trial per building and policy (normal approximation in log)."""
-    def spread(buildings: int) -> float:
-        return sd_one * math.sqrt(2.0 / buildings)
+    buildings, one trial per building and policy, at or below log ``screen``) and the held-out rule (the upper 95 %
+    bound over ``test`` buildings with ``test_trials`` per building and policy at or below log ``BOUND``); normal
+    approximation in log."""
+    def spread(buildings: int, trials: int) -> float:
+        return sd_one * math.sqrt(2.0 / (buildings * trials))
 
     truth = math.log(true_ratio)
-    screen_p = chance_at_most(math.log(screen), truth, spread(validation))
-    test_p = chance_at_most(math.log(BOUND) - Z95 * spread(test), truth, spread(test))
+    screen_p = chance_at_most(math.log(screen), truth, spread(validation, 1))
+    test_sd = spread(test, test_trials)
+    test_p = chance_at_most(math.log(BOUND) - Z95 * test_sd, truth, test_sd)
     return {"passes_screen": round(screen_p, 3), "passes_test": round(test_p, 3), "both": round(screen_p * test_p, 3)}
 
 
@@ -161,14 +164,15 @@ def scene_pass_probability(cv: float, true_ratio: float, trials: int, reference_
 
 
 def screen_table(noise_sd: np.ndarray, screen: float, validation: int, test: int, scenes: list[dict],
-                 scene_trials: int, scene_reference: int) -> dict:
+                 scene_trials: int, scene_reference: int, test_trials: int = 1) -> dict:
     """:func:`pass_probabilities` for travel and map error apart (their log sds ``noise_sd``) at each true ratio,
     and :func:`scene_pass_probability` of the map error in each scene."""
     table = {"screen": screen, "validation_buildings": validation, "test_buildings": test,
-             "scene_trials": scene_trials, "scene_reference_trials": scene_reference}
+             "test_trials_per_building": test_trials, "scene_trials": scene_trials,
+             "scene_reference_trials": scene_reference}
     for column, name in enumerate(("travel", "map_error")):
-        table[name] = {f"{r:.2f}": pass_probabilities(float(noise_sd[column]), r, screen, validation, test)
-                       for r in SCREEN_RATIOS}
+        table[name] = {f"{r:.2f}": pass_probabilities(float(noise_sd[column]), r, screen, validation, test,
+                                                      test_trials) for r in SCREEN_RATIOS}
     for scene in scenes:
         table[f"{scene['scene']}_map_error"] = {
             f"{r:.2f}": scene_pass_probability(scene["map_error_cv"], r, scene_trials, scene_reference)
@@ -207,14 +211,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--screen", type=float, default=1.03, help="the validation screen's point-estimate limit")
     parser.add_argument("--validation-buildings", type=int, default=90, help="buildings the screen reads")
     parser.add_argument("--test-buildings", type=int, default=200, help="buildings of the held-out pool")
+    parser.add_argument("--test-trials", type=int, default=1, help="trials per held-out building and policy")
     parser.add_argument("--scene-trials", type=int, default=120, help="a candidate's trials per named scene")
     parser.add_argument("--scene-reference", type=int, default=200, help="EM's trials per named scene")
     args = parser.parse_args(argv)
     if args.screen <= 0:
         parser.error(f"--screen {args.screen}: give a positive ratio (session 76's screen: 1.03)")
-    if min(args.validation_buildings, args.test_buildings, args.scene_trials, args.scene_reference) < 1:
-        parser.error("--validation-buildings, --test-buildings, --scene-trials and --scene-reference: give at "
-                     "least 1 building or trial each")
+    if min(args.validation_buildings, args.test_buildings, args.test_trials, args.scene_trials,
+           args.scene_reference) < 1:
+        parser.error("--validation-buildings, --test-buildings, --test-trials, --scene-trials and --scene-reference: "
+                     "give at least 1 building or trial each")
     for folder in [*args.em_first, args.em_second, *(Path(f) for _, f in args.variant)]:
         if not folder.is_dir():
             parser.error(f"{folder}: not a folder; give a folder of building_SEED/trials.jsonl")
@@ -242,7 +248,7 @@ def main(argv: list[str] | None = None) -> None:
         print(json.dumps(scene))
     table = planning(math.sqrt(noise[1]), scenes)
     table["screen"] = screen_table(np.sqrt(noise), args.screen, args.validation_buildings, args.test_buildings,
-                                   scenes, args.scene_trials, args.scene_reference)
+                                   scenes, args.scene_trials, args.scene_reference, args.test_trials)
     print(json.dumps(table))
 
 
