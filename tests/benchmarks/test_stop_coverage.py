@@ -782,6 +782,8 @@ def test_noise_parts_splits_the_spread_into_trial_noise_and_the_rest(tmp_path, c
     error = plan["screen"]["map_error"]
     assert error["1.00"]["passes_screen"] > error["1.05"]["passes_screen"] > error["1.10"]["passes_screen"] > 0
     assert plan["screen"]["s_map_error"]["1.00"] > plan["screen"]["s_map_error"]["1.05"]
+    assert plan["screen"]["map_error_every_part"]["1.00"] == pytest.approx(
+        error["1.00"]["both"] * plan["screen"]["s_map_error"]["1.00"], abs=1e-3)
 
 
 def test_noise_parts_planning_figures_by_hand():
@@ -806,6 +808,9 @@ def test_noise_parts_planning_figures_by_hand():
     # 0.09531 - 1.96 x 0.02546 = 0.04542: P(Z <= 1.784) = 0.963; the screen is unchanged
     twice = module.pass_probabilities(0.36, 1.0, 1.03, 90, 200, test_trials=2)
     assert twice["passes_test"] == pytest.approx(0.963, abs=1e-3) and twice["passes_screen"] == chances["passes_screen"]
+    # two trials per validation building: sd 0.36 / sqrt(90) = 0.03795, P(Z <= 0.7789) = 0.782
+    screened = module.pass_probabilities(0.36, 1.0, 1.03, 90, 200, validation_trials=2)
+    assert screened["passes_screen"] == pytest.approx(0.782, abs=1e-3) and screened["passes_test"] == chances["passes_test"]
 
 
 def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
@@ -821,6 +826,7 @@ def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
                           (base + ["--test-buildings", "0"], "at least 1 building"),
                           (base + ["--scene-trials", "0"], "at least 1 building or trial"),
                           (base + ["--test-trials", "0"], "at least 1 building or trial"),
+                          (base + ["--validation-trials", "0"], "at least 1 building or trial"),
                           (base, "2 building(s)")):
         code, _, err = run_main(NOISE_PARTS, args, capsys)
         errors = [line for line in err.splitlines() if "error:" in line]

@@ -15,10 +15,10 @@ many trials per scene (against the given scenes' own number of EM trials, and ag
 bound of the map-error ratio at or below 1.10 if the true ratio is 1.00, 1.03 or 1.05 (normal approximation in
 log; a planning figure, not a result). Its ``screen`` part (session 77) gives, from the same one-trial noise, the
 probability that a candidate of true ratio 0.90-1.10 passes session 76's validation screen (point estimate <=
-``--screen`` on ``--validation-buildings``, one trial each against EM's one) and then the held-out rule (upper bound
-<= 1.10 on ``--test-buildings`` with ``--test-trials`` per building and policy), for map error and travel apart, and that it passes the rule in each ``--scene``
-with ``--scene-trials`` of its own against ``--scene-reference`` of EM's (the scene's coefficient of variation for
-both). The building counts above are where the expected upper bound meets 1.10: about even odds, not a sure pass.
+``--screen`` on ``--validation-buildings`` with ``--validation-trials`` per building and policy) and then the
+held-out rule (upper bound <= 1.10 on ``--test-buildings`` with ``--test-trials`` per building and policy), for map
+error and travel apart, and that it passes the rule in each ``--scene`` with ``--scene-trials`` of its own against
+``--scene-reference`` of EM's (the scene's coefficient of variation for both). The building counts above are where the expected upper bound meets 1.10: about even odds, not a sure pass.
 
     python benchmarks/results/stop_coverage/noise_parts.py --em-first runs/val runs/val2 \
         --em-second runs/em_replicate_val90 --variant dagger9k=runs/dagger9k_val90 \
@@ -141,16 +141,16 @@ def chance_at_most(limit: float, truth: float, sd: float) -> float:
 
 
 def pass_probabilities(sd_one: float, true_ratio: float, screen: float, validation: int, test: int,
-                       test_trials: int = 1) -> dict:
+                       test_trials: int = 1, validation_trials: int = 1) -> dict:
     """The chance that a candidate of ``true_ratio`` passes the screen (its pooled log ratio over ``validation``
-    buildings, one trial per building and policy, at or below log ``screen``) and the held-out rule (the upper 95 %
-    bound over ``test`` buildings with ``test_trials`` per building and policy at or below log ``BOUND``); normal
-    approximation in log."""
+    buildings with ``validation_trials`` per building and policy at or below log ``screen``) and the held-out rule
+    (the upper 95 % bound over ``test`` buildings with ``test_trials`` per building and policy at or below log
+    ``BOUND``); normal approximation in log."""
     def spread(buildings: int, trials: int) -> float:
         return sd_one * math.sqrt(2.0 / (buildings * trials))
 
     truth = math.log(true_ratio)
-    screen_p = chance_at_most(math.log(screen), truth, spread(validation, 1))
+    screen_p = chance_at_most(math.log(screen), truth, spread(validation, validation_trials))
     test_sd = spread(test, test_trials)
     test_p = chance_at_most(math.log(BOUND) - Z95 * test_sd, truth, test_sd)
     return {"passes_screen": round(screen_p, 3), "passes_test": round(test_p, 3), "both": round(screen_p * test_p, 3)}
@@ -164,19 +164,23 @@ def scene_pass_probability(cv: float, true_ratio: float, trials: int, reference_
 
 
 def screen_table(noise_sd: np.ndarray, screen: float, validation: int, test: int, scenes: list[dict],
-                 scene_trials: int, scene_reference: int, test_trials: int = 1) -> dict:
+                 scene_trials: int, scene_reference: int, test_trials: int = 1, validation_trials: int = 1) -> dict:
     """:func:`pass_probabilities` for travel and map error apart (their log sds ``noise_sd``) at each true ratio,
     and :func:`scene_pass_probability` of the map error in each scene."""
     table = {"screen": screen, "validation_buildings": validation, "test_buildings": test,
-             "test_trials_per_building": test_trials, "scene_trials": scene_trials,
+             "validation_trials_per_building": validation_trials, "test_trials_per_building": test_trials,
+             "scene_trials": scene_trials,
              "scene_reference_trials": scene_reference}
     for column, name in enumerate(("travel", "map_error")):
         table[name] = {f"{r:.2f}": pass_probabilities(float(noise_sd[column]), r, screen, validation, test,
-                                                      test_trials) for r in SCREEN_RATIOS}
+                                                      test_trials, validation_trials) for r in SCREEN_RATIOS}
+    every = {f"{r:.2f}": table["map_error"][f"{r:.2f}"]["both"] for r in SCREEN_RATIOS}
     for scene in scenes:
-        table[f"{scene['scene']}_map_error"] = {
-            f"{r:.2f}": scene_pass_probability(scene["map_error_cv"], r, scene_trials, scene_reference)
-            for r in SCREEN_RATIOS}
+        chances = {f"{r:.2f}": scene_pass_probability(scene["map_error_cv"], r, scene_trials, scene_reference)
+                   for r in SCREEN_RATIOS}
+        table[f"{scene['scene']}_map_error"] = chances
+        every = {r: p * chances[r] for r, p in every.items()}
+    table["map_error_every_part"] = {r: round(p, 3) for r, p in every.items()}  # screen, pool and scenes, independent
     return table
 
 
@@ -211,16 +215,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--screen", type=float, default=1.03, help="the validation screen's point-estimate limit")
     parser.add_argument("--validation-buildings", type=int, default=90, help="buildings the screen reads")
     parser.add_argument("--test-buildings", type=int, default=200, help="buildings of the held-out pool")
+    parser.add_argument("--validation-trials", type=int, default=1, help="trials per validation building and policy")
     parser.add_argument("--test-trials", type=int, default=1, help="trials per held-out building and policy")
     parser.add_argument("--scene-trials", type=int, default=120, help="a candidate's trials per named scene")
     parser.add_argument("--scene-reference", type=int, default=200, help="EM's trials per named scene")
     args = parser.parse_args(argv)
     if args.screen <= 0:
         parser.error(f"--screen {args.screen}: give a positive ratio (session 76's screen: 1.03)")
-    if min(args.validation_buildings, args.test_buildings, args.test_trials, args.scene_trials,
-           args.scene_reference) < 1:
-        parser.error("--validation-buildings, --test-buildings, --test-trials, --scene-trials and --scene-reference: "
-                     "give at least 1 building or trial each")
+    if min(args.validation_buildings, args.validation_trials, args.test_buildings, args.test_trials,
+           args.scene_trials, args.scene_reference) < 1:
+        parser.error("--validation-buildings, --validation-trials, --test-buildings, --test-trials, --scene-trials "
+                     "and --scene-reference: give at least 1 building or trial each")
     for folder in [*args.em_first, args.em_second, *(Path(f) for _, f in args.variant)]:
         if not folder.is_dir():
             parser.error(f"{folder}: not a folder; give a folder of building_SEED/trials.jsonl")
@@ -248,7 +253,8 @@ def main(argv: list[str] | None = None) -> None:
         print(json.dumps(scene))
     table = planning(math.sqrt(noise[1]), scenes)
     table["screen"] = screen_table(np.sqrt(noise), args.screen, args.validation_buildings, args.test_buildings,
-                                   scenes, args.scene_trials, args.scene_reference, args.test_trials)
+                                   scenes, args.scene_trials, args.scene_reference, args.test_trials,
+                                   args.validation_trials)
     print(json.dumps(table))
 
 
