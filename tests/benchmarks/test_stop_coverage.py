@@ -757,11 +757,12 @@ def test_noise_parts_splits_the_spread_into_trial_noise_and_the_rest(tmp_path, c
                                                  timed_trial("em", seed, 9.0, 80.0)])
     write_building(tmp_path / "first", 9, [timed_trial("em", 9, 0.1, 80.0)])
     write_building(tmp_path / "second", 9, [timed_trial("em", 9, 0.1, 80.0)])
-    scene = tmp_path / "scene.jsonl"
-    scene.write_text("".join(json.dumps(timed_trial("em", s, e, 80.0)) + "\n" for s, e in enumerate((1, 2, 3))))
+    scene, more = tmp_path / "scene.jsonl", tmp_path / "more.jsonl"  # one scene's trials in two files
+    scene.write_text("".join(json.dumps(timed_trial("em", s, e, 80.0)) + "\n" for s, e in enumerate((1, 2))))
+    more.write_text(json.dumps(timed_trial("em", 2, 3, 80.0)) + "\n")
     code, out, _ = run_main(NOISE_PARTS, ["--em-first", str(tmp_path / "first"), "--em-second",
                                           str(tmp_path / "second"), "--variant", f"mine={tmp_path / 'mine'}",
-                                          "--scene", f"s={scene}"], capsys)
+                                          "--scene", f"s={scene}+{more}"], capsys)
     pool, variant, scene_line, plan = json_lines(out)
     noise = 2 * np.var(offsets, ddof=1)
     assert code == 0 and pool["buildings"] == 5 and variant["buildings"] == 5
@@ -822,6 +823,8 @@ def test_noise_parts_refuses_bad_arguments_in_one_line(tmp_path, capsys):
                           (base + ["--variant", "mine"], "give NAME=PATH"),
                           (base + ["--variant", f"a={tmp_path}", "--variant", f"a={tmp_path}"], "share a NAME"),
                           (base + ["--scene", f"s={tmp_path / 'none.jsonl'}"], "is no file"),
+                          (base + ["--scene", f"s={base[1]}/building_0/trials.jsonl+{tmp_path / 'none.jsonl'}"],
+                           "is no file"),
                           (base + ["--screen", "0"], "give a positive ratio"),
                           (base + ["--test-buildings", "0"], "at least 1 building"),
                           (base + ["--scene-trials", "0"], "at least 1 building or trial"),

@@ -105,11 +105,13 @@ def variant_entry(name: str, mine: np.ndarray, em_a: np.ndarray, em_b: np.ndarra
             "excess_variance_ci95": [round(float(q), 4) for q in np.percentile(excess, [2.5, 97.5])]}
 
 
-def scene_entry(name: str, path: Path, policy: str) -> dict:
-    """One named scene's trials: the coefficient of variation of one trial's map error and travel."""
-    runs = [t for t in read_trials(path) if t.get("policy") == policy and t.get("rows")]
+def scene_entry(name: str, paths: list[Path], policy: str) -> dict:
+    """One named scene's trials (from one or more files): the coefficient of variation of one trial's map error and
+    travel."""
+    runs = [t for path in paths for t in read_trials(path) if t.get("policy") == policy and t.get("rows")]
     if len(runs) < 2:
-        raise SystemExit(f"--scene {name}: {path} holds {len(runs)} finished {policy} trial(s); give at least two")
+        raise SystemExit(f"--scene {name}: {'+'.join(map(str, paths))} holds {len(runs)} finished {policy} "
+                         "trial(s); give at least two")
     coverage = zero_shot.common_coverage(runs, COVERAGE)
     points = [zero_shot.trial_point(r, coverage) for r in runs]
     errors, travels = np.array([p.map_error_m for p in points]), np.array([p.travel_m for p in points])
@@ -210,8 +212,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--em-second", type=Path, required=True, metavar="FOLDER", help="EM's second trials")
     parser.add_argument("--variant", action="append", default=[], metavar="NAME=FOLDER",
                         type=lambda t: named(t, "--variant"), help="a variant's learned trials on the same buildings")
-    parser.add_argument("--scene", action="append", default=[], metavar="NAME=FILE[:POLICY]",
-                        type=lambda t: named(t, "--scene"), help="a named scene's trials.jsonl (default policy em)")
+    parser.add_argument("--scene", action="append", default=[], metavar="NAME=FILE[+FILE][:POLICY]",
+                        type=lambda t: named(t, "--scene"),
+                        help="a named scene's trials.jsonl, or several joined by + (default policy em)")
     parser.add_argument("--screen", type=float, default=1.03, help="the validation screen's point-estimate limit")
     parser.add_argument("--validation-buildings", type=int, default=90, help="buildings the screen reads")
     parser.add_argument("--test-buildings", type=int, default=200, help="buildings of the held-out pool")
@@ -233,10 +236,11 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--variant: two variants share a NAME; give each its own")
     scenes = []
     for name, value in args.scene:
-        file, _, policy = value.partition(":")
-        if not Path(file).is_file():
-            parser.error(f"--scene {name}: {file} is no file; give a named scene's trials.jsonl")
-        scenes.append(scene_entry(name, Path(file), policy or "em"))
+        files, _, policy = value.partition(":")
+        for file in files.split("+"):
+            if not Path(file).is_file():
+                parser.error(f"--scene {name}: {file} is no file; give a named scene's trials.jsonl")
+        scenes.append(scene_entry(name, [Path(f) for f in files.split("+")], policy or "em"))
     variants = {name: Path(folder) for name, folder in args.variant}
     buildings, em_a, em_b, theirs = building_logs(args.em_first, args.em_second, variants)
     if len(buildings) < 3:
