@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Session 77 (plan.md's addendum of 15:21 UTC; measures the shipped default, selects nothing): the shipped default's
+# Session 77 (plan.md's addendum of 15:19 UTC; measures the shipped default, selects nothing): the shipped default's
 # learned trials in the street and the garage for seeds 50-119 (street_garage.sh's config) into
 # /work/runs/stop85_default_named_s77, then joined with its stored seeds 0-49 of runs/street_garage50 (session 67) into
 # /work/runs/stop85_street_garage_default120/{0_street,1_garage}/trials.jsonl, 120 per scene, which study.sh's set
