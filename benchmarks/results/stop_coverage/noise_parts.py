@@ -18,7 +18,8 @@ probability that a candidate of true ratio 0.90-1.10 passes session 76's validat
 ``--screen`` on ``--validation-buildings`` with ``--validation-trials`` per building and policy) and then the
 held-out rule (upper bound <= 1.10 on ``--test-buildings`` with ``--test-trials`` per building and policy), for map
 error and travel apart, and that it passes the rule in each ``--scene`` with ``--scene-trials`` of its own against
-``--scene-reference`` of EM's (the scene's coefficient of variation for both). The building counts above are where the expected upper bound meets 1.10: about even odds, not a sure pass.
+``--scene-reference`` of EM's (the scene's coefficient of variation for both). The building counts above are where
+the expected upper bound meets 1.10: about even odds, not a sure pass.
 
     python benchmarks/results/stop_coverage/noise_parts.py --em-first runs/val runs/val2 \
         --em-second runs/em_replicate_val90 --variant dagger9k=runs/dagger9k_val90 \
@@ -142,6 +143,12 @@ def chance_at_most(limit: float, truth: float, sd: float) -> float:
     return 0.5 * (1.0 + math.erf((limit - truth) / (sd * math.sqrt(2.0))))
 
 
+def chance_bound_passes(true_ratio: float, sd: float) -> float:
+    """The chance that a pooled log ratio with ``sd`` about log ``true_ratio`` has its upper 95 % bound at or below
+    log ``BOUND`` (the held-out and named-scene rule)."""
+    return chance_at_most(math.log(BOUND) - Z95 * sd, math.log(true_ratio), sd)
+
+
 def pass_probabilities(sd_one: float, true_ratio: float, screen: float, validation: int, test: int,
                        test_trials: int = 1, validation_trials: int = 1) -> dict:
     """The chance that a candidate of ``true_ratio`` passes the screen (its pooled log ratio over ``validation``
@@ -151,18 +158,15 @@ def pass_probabilities(sd_one: float, true_ratio: float, screen: float, validati
     def spread(buildings: int, trials: int) -> float:
         return sd_one * math.sqrt(2.0 / (buildings * trials))
 
-    truth = math.log(true_ratio)
-    screen_p = chance_at_most(math.log(screen), truth, spread(validation, validation_trials))
-    test_sd = spread(test, test_trials)
-    test_p = chance_at_most(math.log(BOUND) - Z95 * test_sd, truth, test_sd)
+    screen_p = chance_at_most(math.log(screen), math.log(true_ratio), spread(validation, validation_trials))
+    test_p = chance_bound_passes(true_ratio, spread(test, test_trials))
     return {"passes_screen": round(screen_p, 3), "passes_test": round(test_p, 3), "both": round(screen_p * test_p, 3)}
 
 
 def scene_pass_probability(cv: float, true_ratio: float, trials: int, reference_trials: int) -> float:
     """The chance that the ratio of means over ``trials`` against ``reference_trials`` of EM's (both with the
     coefficient of variation ``cv``) has its upper 95 % bound at or below ``BOUND`` (normal approximation in log)."""
-    sd = cv * math.sqrt(1.0 / trials + 1.0 / reference_trials)
-    return round(chance_at_most(math.log(BOUND) - Z95 * sd, math.log(true_ratio), sd), 3)
+    return round(chance_bound_passes(true_ratio, cv * math.sqrt(1.0 / trials + 1.0 / reference_trials)), 3)
 
 
 def screen_table(noise_sd: np.ndarray, screen: float, validation: int, test: int, scenes: list[dict],
@@ -171,18 +175,18 @@ def screen_table(noise_sd: np.ndarray, screen: float, validation: int, test: int
     and :func:`scene_pass_probability` of the map error in each scene."""
     table = {"screen": screen, "validation_buildings": validation, "test_buildings": test,
              "validation_trials_per_building": validation_trials, "test_trials_per_building": test_trials,
-             "scene_trials": scene_trials,
-             "scene_reference_trials": scene_reference}
+             "scene_trials": scene_trials, "scene_reference_trials": scene_reference}
+    keys = {f"{r:.2f}": r for r in SCREEN_RATIOS}
     for column, name in enumerate(("travel", "map_error")):
-        table[name] = {f"{r:.2f}": pass_probabilities(float(noise_sd[column]), r, screen, validation, test,
-                                                      test_trials, validation_trials) for r in SCREEN_RATIOS}
-    every = {f"{r:.2f}": table["map_error"][f"{r:.2f}"]["both"] for r in SCREEN_RATIOS}
+        table[name] = {key: pass_probabilities(float(noise_sd[column]), r, screen, validation, test, test_trials,
+                                               validation_trials) for key, r in keys.items()}
+    every = {key: table["map_error"][key]["both"] for key in keys}  # screen, pool and scenes, taken as independent
     for scene in scenes:
-        chances = {f"{r:.2f}": scene_pass_probability(scene["map_error_cv"], r, scene_trials, scene_reference)
-                   for r in SCREEN_RATIOS}
+        chances = {key: scene_pass_probability(scene["map_error_cv"], r, scene_trials, scene_reference)
+                   for key, r in keys.items()}
         table[f"{scene['scene']}_map_error"] = chances
-        every = {r: p * chances[r] for r, p in every.items()}
-    table["map_error_every_part"] = {r: round(p, 3) for r, p in every.items()}  # screen, pool and scenes, independent
+        every = {key: p * chances[key] for key, p in every.items()}
+    table["map_error_every_part"] = {key: round(p, 3) for key, p in every.items()}
     return table
 
 
@@ -237,10 +241,11 @@ def main(argv: list[str] | None = None) -> None:
     scenes = []
     for name, value in args.scene:
         files, _, policy = value.partition(":")
-        for file in files.split("+"):
-            if not Path(file).is_file():
-                parser.error(f"--scene {name}: {file} is no file; give a named scene's trials.jsonl")
-        scenes.append(scene_entry(name, [Path(f) for f in files.split("+")], policy or "em"))
+        paths = [Path(f) for f in files.split("+")]
+        for path in paths:
+            if not path.is_file():
+                parser.error(f"--scene {name}: {path} is no file; give a named scene's trials.jsonl")
+        scenes.append(scene_entry(name, paths, policy or "em"))
     variants = {name: Path(folder) for name, folder in args.variant}
     buildings, em_a, em_b, theirs = building_logs(args.em_first, args.em_second, variants)
     if len(buildings) < 3:
