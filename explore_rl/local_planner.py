@@ -65,8 +65,7 @@ class ObstacleRing:
 
     def __call__(self, true_pose: np.ndarray) -> np.ndarray:
         start = time.perf_counter()
-        scan = self.lidar.scan(true_pose)
-        points = scan.points
+        points = self.lidar.points(true_pose)
         keep = points[:, 2] + self.lidar.config.mount_height >= self.floor_height
         out = points[keep, :2].copy()
         self.casts += 1

@@ -65,17 +65,22 @@ class Robot:
         self,
         config: RobotConfig,
         start_pose: np.ndarray,
-        is_free: Callable[[np.ndarray], np.ndarray],
+        is_free: Callable[[np.ndarray], np.ndarray] | None,
         rng: np.random.Generator,
         clearance: Callable[[np.ndarray], np.ndarray] | None = None,
         guard=None,
     ):
-        """``clearance(xy)``: footprint clearance (m) at ``xy (..., 2)``, negative in
-        collision; :meth:`escape` needs it, and with it every step's true clearance is
-        measured (``min_clearance``). ``guard``: the local safety layer
+        """``is_free(xy)``: whether the footprint at ``xy (..., 2)`` is clear; None: where
+        ``clearance`` is >= 0 (one distance query per step instead of two).
+        ``clearance(xy)``: footprint clearance (m) at ``xy``, negative in collision;
+        :meth:`escape` needs it, and with it every step's true clearance is measured
+        (``min_clearance``). ``guard``: the local safety layer
         (:class:`~explore_rl.local_planner.LocalPlanner`) that adjusts each step of
         :meth:`follow`; None follows paths unguarded."""
+        if is_free is None and clearance is None:
+            raise ValueError("Robot needs is_free or clearance to tell free poses from collisions")
         self.config = config
+        self._noise_scale = np.array([config.noise_xy, config.noise_xy, np.deg2rad(config.noise_yaw_deg)])
         self.is_free = is_free
         self.clearance = clearance
         self.guard = guard
@@ -163,13 +168,18 @@ class Robot:
     def execute(self, command: np.ndarray) -> MotionStep | None:
         """Apply one commanded step with motion noise; None (and no motion) if it would collide."""
         cfg = self.config
-        noise = self.rng.normal(0.0, [cfg.noise_xy, cfg.noise_xy, np.deg2rad(cfg.noise_yaw_deg)])
+        noise = self.rng.normal(0.0, self._noise_scale)
         new_true = se2_compose(self.true_pose, command + noise)
-        if not bool(self.is_free(new_true[:2])):
+        if self.is_free is None:  # free where the clearance is >= 0: one distance query
+            gap = float(self.clearance(new_true[:2]))
+            free = gap >= 0.0
+        else:
+            free = bool(self.is_free(new_true[:2]))
+            gap = float(self.clearance(new_true[:2])) if free and self.clearance is not None else np.inf
+        if not free:
             self.contacts += 1
             return None
-        if self.clearance is not None:
-            self.min_clearance = min(self.min_clearance, float(self.clearance(new_true[:2])))
+        self.min_clearance = min(self.min_clearance, gap)
         self.true_pose = new_true
         self.odom_pose = se2_compose(self.odom_pose, command)
         self.belief_pose = se2_compose(self.belief_pose, command)

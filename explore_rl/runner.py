@@ -96,7 +96,7 @@ class Explorer:
         # the local safety layer on its own LiDAR ring (None with robot.safety.enabled=false)
         self.local_planner = make_local_planner(config.robot.safety, config.robot, self.scene, config.lidar,
                                                 np.random.default_rng([config.seed, 5]))
-        self.robot = Robot(config.robot, start, self.scene.is_free, np.random.default_rng([config.seed, 2]),
+        self.robot = Robot(config.robot, start, None, np.random.default_rng([config.seed, 2]),
                            clearance=self.scene.footprint_clearance, guard=self.local_planner)
         self.session = SlamSession(config.slam, config.mapping, self.scene, self.lidar, start,
                                    np.random.default_rng([config.seed, 3]))

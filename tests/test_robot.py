@@ -237,3 +237,32 @@ def test_robot_config_validate_names_the_key_and_range(key, value, message):
     RobotConfig().validate()
     with pytest.raises(ValueError, match=message):
         RobotConfig(**{key: value}).validate()
+
+
+def test_clearance_alone_decides_collisions_like_is_free(office):
+    """``is_free=None``: a step is free where the clearance is >= 0 (one distance query per
+    step): the same steps, contacts and least clearance as with ``office.is_free`` beside it,
+    on straight paths to random goals (most end against a wall)."""
+    free_cells = np.argwhere(office.truth.reachable)
+    choose = np.random.default_rng(4)
+    steps, contacts = 0, 0
+    for trial in range(6):
+        goals = office.grid.cell_to_world(free_cells[choose.choice(len(free_cells), 3)])
+        runs = []
+        for is_free in (office.is_free, None):
+            robot = Robot(RobotConfig(), office.start_pose, is_free, np.random.default_rng(trial),
+                          clearance=office.footprint_clearance)
+            poses = [step.true_pose for step in robot.follow(goals)]
+            runs.append((np.array(poses).reshape(-1, 3), robot.contacts, robot.min_clearance, robot.status))
+        (poses_a, contacts_a, least_a, status_a), (poses_b, contacts_b, least_b, status_b) = runs
+        assert poses_a.shape == poses_b.shape
+        np.testing.assert_allclose(poses_b, poses_a, rtol=0, atol=1e-12)
+        assert (contacts_b, status_b) == (contacts_a, status_a)
+        assert least_b == pytest.approx(least_a, abs=1e-12)
+        steps, contacts = steps + len(poses_a), contacts + contacts_a
+    assert steps > 50 and contacts > 0  # both branches ran: free steps and refused ones
+
+
+def test_a_robot_without_any_collision_test_is_refused():
+    with pytest.raises(ValueError, match="is_free or clearance"):
+        Robot(RobotConfig(), np.zeros(3), None, np.random.default_rng(0))

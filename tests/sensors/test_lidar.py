@@ -138,3 +138,13 @@ def test_lidar_pickles_and_casts_the_same(office):
     clone = pickle.loads(pickle.dumps(lidar))
     assert np.array_equal(clone.cast(pose), before)
     assert np.array_equal(clone.scan(pose).points, lidar.scan(pose).points)
+
+
+def test_points_are_the_scans_points_with_the_same_noise(office):
+    """``Lidar.points`` (the safety ring's cast) draws the same noise as ``scan``."""
+    poses = [office.start_pose, office.start_pose + np.array([0.3, -0.2, 1.0])]
+    for pose in poses:
+        scan = Lidar(office, LidarConfig(), np.random.default_rng(11)).scan(pose)
+        points = Lidar(office, LidarConfig(), np.random.default_rng(11)).points(pose)
+        assert len(points) > 1000
+        np.testing.assert_allclose(points, scan.points, rtol=0, atol=1e-12)
