@@ -7,6 +7,10 @@ is importable. Scan poses are seeded samples of reachable free space. The proces
 pinned to one core (the target is quoted per core); `ms_per_scan_multiray_only` is the
 `mj_multiRay` call alone, without the noise and point assembly of a scan, on the
 LiDAR's tile models and (`..._full_model`, the baseline for the tiles) on the full scene.
+Where the cast's time goes (issue 22's drive): `ms_per_scan_multiray_nothing_to_hit`, the
+same rays on a model whose one geom is out of reach (MuJoCo's per-ray cost, the floor of
+any scene model), and `ms_per_scan_multiray_by_wall_piece`, the cast on scenes whose walls
+are cut into pieces of at most that many metres (`scene.max_geom_length`; 6 is the default).
 
     python benchmarks/bench_lidar.py [--quick | --smoke]
 """
@@ -99,6 +103,39 @@ def open3d_caster(scene: Scene, cylinder_resolution: int = 128):
     return cast
 
 
+WALL_PIECES = (6.0, 3.0, 1.5)  # scene.max_geom_length values timed (metres)
+
+
+def multiray_nothing_to_hit(lidar: Lidar, poses: np.ndarray) -> float:
+    """Median seconds of the LiDAR's ``mj_multiRay`` on a model whose one geom (a small
+    sphere far above the scene) no ray reaches: what the call costs with nothing to test."""
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.1, 0.0, 0.0], pos=[0.0, 0.0, 1e3])
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    n = lidar.rays_per_scan
+    geomid, dist = np.empty(n, dtype=np.int32), np.empty(n)
+
+    def cast(origin: np.ndarray, directions: np.ndarray) -> None:
+        mujoco.mj_multiRay(model, data, origin, directions, None, 1, -1, geomid, dist, None, n,
+                           lidar.config.max_range)
+    rays = [(lidar.sensor_position(p), world_directions(lidar, p).reshape(-1)) for p in poses]
+    return float(np.median([time_call(lambda r=r: cast(*r), repeats=5) for r in rays]))
+
+
+def multiray_by_wall_piece(config: SceneConfig, poses: np.ndarray) -> dict[str, float]:
+    """Median ms of the LiDAR's ``mj_multiRay`` (tile models) on the scene rebuilt with its
+    walls cut into pieces of at most each of :data:`WALL_PIECES` metres, at the same poses."""
+    out = {}
+    for length in WALL_PIECES:
+        scene = make_scene(replace(config, max_geom_length=length), RobotConfig(), LidarConfig())
+        lidar = Lidar(scene, LidarConfig(), np.random.default_rng(0))
+        out[f"{length:g}"] = round(1e3 * float(np.median([time_call(lambda p=p: lidar.cast_raw(p), repeats=5)
+                                                          for p in poses])), 3)
+    return out
+
+
 def bench_scene(name: str, config: SceneConfig, poses_count: int, loop_count: int) -> dict:
     scene = make_scene(config, RobotConfig(), LidarConfig())
     lidar = Lidar(scene, LidarConfig(), np.random.default_rng(0))
@@ -141,6 +178,8 @@ def bench_scene(name: str, config: SceneConfig, poses_count: int, loop_count: in
         "ms_per_scan_multiray_only": round(1e3 * float(np.median(multiray_s)), 3),
         "ms_per_scan_multiray_full_model": round(1e3 * float(np.median(full_model_s)), 3),
         "mean_geoms_per_tile_model": round(float(np.mean(tile_geoms)), 1),
+        "ms_per_scan_multiray_nothing_to_hit": round(1e3 * multiray_nothing_to_hit(lidar, poses), 3),
+        "ms_per_scan_multiray_by_wall_piece": multiray_by_wall_piece(config, poses),
         "meets_4_mrays_per_s": lidar.rays_per_scan / ms / 1e3 >= 4.0,
         "ms_per_scan_mj_ray_loop": round(ms_loop, 2),
         "speedup_vs_loop": round(ms_loop / ms, 1),

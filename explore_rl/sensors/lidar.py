@@ -11,6 +11,7 @@ group the LiDAR leaves out and its body is excluded too.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -75,8 +76,7 @@ class StaticTiles:
         return len(self._tiles)
 
     def tile_of(self, xy: np.ndarray) -> tuple[int, int]:
-        i, j = np.floor(np.asarray(xy[:2], dtype=float) / self.tile_size).astype(int)
-        return int(i), int(j)
+        return math.floor(float(xy[0]) / self.tile_size), math.floor(float(xy[1]) / self.tile_size)
 
     def model_at(self, xy: np.ndarray) -> tuple[mujoco.MjModel, mujoco.MjData]:
         """Model and data of the tile under the planar position ``xy``."""
