@@ -21,3 +21,6 @@ measure bench_drive_45deg_s79.log $NOW bench_drive --fast-set slam=model_45deg
 measure bench_env_s79.log $NOW bench_env
 measure bench_env_before_s79.log $BEFORE bench_env
 measure bench_lidar_s79.log $NOW bench_lidar
+# Added after the five above had run, and run on its own (this line with the set-up above): the drive again with
+# the session's code and its cProfile bound (the shared native calls alone).
+measure bench_drive_45deg_profile_s79.log $NOW bench_drive --fast-set slam=model_45deg --profile $HERE/bench_drive_45deg_profile_s79.txt

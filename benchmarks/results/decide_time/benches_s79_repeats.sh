@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Session 79: the same two benchmarks as benches_s79.sh run again, because two runs of today's bench_drive gave 2.52x
+# and 2.08x (the machine's speed drifts between the two modes' replays): bench_drive at 45 deg twice more with each
+# code (session 77's eee2a6d1 at BEFORE, and today's), interleaved, then bench_env once more with each, and bench_lidar with its interleaved wall-piece rounds. Logs
+# bench_drive_45deg_{before_,}s79_r{2,3}.log, bench_env_{before_,}s79_r2.log, bench_lidar_rounds_s79.log.
+set -e
+HERE=$(cd "$(dirname "$0")" && pwd)
+cd $HERE/../../..
+source $HERE/../keep.sh
+BEFORE=${BEFORE:-/tmp/before_s79}
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+[ -d $BEFORE/explore_rl ] || git worktree add $BEFORE eee2a6d1
+measure() {  # measure LOG ROOT SCRIPT ARGS...: ROOT's benchmarks/SCRIPT.py with ROOT's explore_rl
+  { echo "uptime at start: $(uptime)"; echo "code: $(git -C $2 rev-parse HEAD)";
+    PYTHONPATH=$2 $PY $2/benchmarks/$3.py "${@:4}"; echo "uptime at end: $(uptime)"; } > $HERE/$1 2>&1
+}
+NOW=$(pwd)
+for r in 2 3; do
+  measure bench_drive_45deg_s79_r$r.log $NOW bench_drive --fast-set slam=model_45deg
+  measure bench_drive_45deg_before_s79_r$r.log $BEFORE bench_drive --fast-set slam=model_45deg
+done
+measure bench_env_before_s79_r2.log $BEFORE bench_env
+measure bench_env_s79_r2.log $NOW bench_env
+measure bench_lidar_rounds_s79.log $NOW bench_lidar
