@@ -6,15 +6,7 @@
 set -e
 HERE=$(cd "$(dirname "$0")" && pwd)
 cd $HERE/../../..
-source $HERE/../keep.sh
-BEFORE=${BEFORE:-/tmp/before_s79}
-export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
-[ -d $BEFORE/explore_rl ] || git worktree add $BEFORE eee2a6d1
-measure() {  # measure LOG ROOT SCRIPT ARGS...: ROOT's benchmarks/SCRIPT.py with ROOT's explore_rl
-  { echo "uptime at start: $(uptime)"; echo "code: $(git -C $2 rev-parse HEAD)";
-    PYTHONPATH=$2 $PY $2/benchmarks/$3.py "${@:4}"; echo "uptime at end: $(uptime)"; } > $HERE/$1 2>&1
-}
-NOW=$(pwd)
+source $HERE/code_versions_s79.sh
 for r in 2 3; do
   measure bench_drive_45deg_s79_r$r.log $NOW bench_drive --fast-set slam=model_45deg
   measure bench_drive_45deg_before_s79_r$r.log $BEFORE bench_drive --fast-set slam=model_45deg
