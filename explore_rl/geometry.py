@@ -23,8 +23,9 @@ def _one_pose(a, b) -> tuple[list[float], list[float]] | None:
     Single poses take the scalar ``math`` paths of :func:`se2_compose` and
     :func:`se2_between` (every motion step calls them a few times, where numpy's per-call
     overhead costs ~20x the arithmetic). The same operations in the same order as the
-    vectorised code: equal wherever ``math`` and numpy's cos/sin agree (both libm here;
-    ``tests/test_geometry.py`` compares them with a tolerance).
+    vectorised code, so equal wherever ``math``'s and numpy's cos/sin agree; where numpy
+    vectorises them they may differ in the last bit (``tests/test_geometry.py`` compares
+    the two paths with a tolerance).
     """
     if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape == (3,):
         return a.tolist(), b.tolist()

@@ -178,18 +178,18 @@ class Lidar:
 
     def scan(self, pose: np.ndarray) -> Scan:
         """A noisy scan from the robot at its *true* planar ``pose``."""
-        points, hit, dist = self._noisy_returns(pose)
+        points, hit, hit_index, dist = self._noisy_returns(pose)
         no_return_dirs = self.directions.take(np.flatnonzero(~hit), axis=0)
         return Scan(points=points, no_return_dirs=no_return_dirs, ranges=np.where(hit, dist, -1.0),
-                    hit_index=np.flatnonzero(hit))
+                    hit_index=hit_index)
 
     def points(self, pose: np.ndarray) -> np.ndarray:
         """The hit points alone of :meth:`scan` (the same noise draws), for callers that
         need nothing else (the safety layer's ring, cast every motion step)."""
         return self._noisy_returns(pose)[0]
 
-    def _noisy_returns(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Noisy hit points (sensor frame), the rays with a return, the raw distances."""
+    def _noisy_returns(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Noisy hit points (sensor frame), the rays with a return (mask and indices), the raw distances."""
         self.scene.set_robot_pose(pose)
         dist = self.cast_raw(pose)
         hit = self._returns(dist)
@@ -198,4 +198,4 @@ class Lidar:
         noisy += self.rng.normal(0.0, self.config.range_noise, size=len(hit_index))
         points = self.directions.take(hit_index, axis=0)
         points *= noisy[:, None]
-        return points, hit, dist
+        return points, hit, hit_index, dist
