@@ -17,33 +17,42 @@ def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
     return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def _one_pose(a, b) -> tuple[list[float], list[float]] | None:
-    """Both arguments as lists of 3 floats when each is one planar pose, else None.
-
-    Single poses take the scalar ``math`` paths of :func:`se2_compose` and
-    :func:`se2_between` (every motion step calls them a few times, where numpy's per-call
-    overhead costs ~20x the arithmetic). The same operations in the same order as the
-    vectorised code, so equal wherever ``math``'s and numpy's cos/sin agree; where numpy
-    vectorises them they may differ in the last bit (``tests/test_geometry.py`` compares
-    the two paths with a tolerance).
-    """
-    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape == (3,):
-        return a.tolist(), b.tolist()
-    return None
-
-
-def _wrap_one(angle: float) -> float:
+def wrap_angle_one(angle: float) -> float:
     """:func:`wrap_angle` of one Python float (the same float operations)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
+def se2_compose_tuple(a, b) -> tuple[float, float, float]:
+    """:func:`se2_compose` of one pose and one motion (sequences of 3 floats) in scalar
+    ``math``, as a tuple.
+
+    For the per-step hot paths (every motion step composes a few poses; numpy's per-call
+    overhead costs ~20x the arithmetic). The same operations in the same order as the
+    vectorised code, so equal wherever ``math``'s and numpy's cos/sin agree; where numpy
+    vectorises them they may differ in the last bit (``tests/test_geometry.py`` compares
+    the two with a tolerance).
+    """
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap_angle_one(a[2] + b[2])
+
+
+def se2_between_tuple(a, b) -> tuple[float, float, float]:
+    """:func:`se2_between` of two poses (sequences of 3 floats) in scalar ``math``, as a
+    tuple (see :func:`se2_compose_tuple`)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return c * dx + s * dy, -s * dx + c * dy, wrap_angle_one(b[2] - a[2])
+
+
+def _one_pose(a, b) -> bool:
+    """Whether both arguments are single planar poses ``(3,)`` (the scalar paths)."""
+    return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape == (3,)
+
+
 def se2_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a (+) b``: apply the body-frame motion ``b`` at pose ``a`` (both ``(..., 3)``)."""
-    one = _one_pose(a, b)
-    if one is not None:
-        (ax, ay, ayaw), (bx, by, byaw) = one
-        c, s = math.cos(ayaw), math.sin(ayaw)
-        return np.array([ax + c * bx - s * by, ay + s * bx + c * by, _wrap_one(ayaw + byaw)])
+    if _one_pose(a, b):
+        return np.array(se2_compose_tuple(a.tolist(), b.tolist()))
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
@@ -54,12 +63,8 @@ def se2_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def se2_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a^-1 (+) b``: the motion from pose ``a`` to pose ``b`` in ``a``'s body frame."""
-    one = _one_pose(a, b)
-    if one is not None:
-        (ax, ay, ayaw), (bx, by, byaw) = one
-        c, s = math.cos(ayaw), math.sin(ayaw)
-        dx, dy = bx - ax, by - ay
-        return np.array([c * dx + s * dy, -s * dx + c * dy, _wrap_one(byaw - ayaw)])
+    if _one_pose(a, b):
+        return np.array(se2_between_tuple(a.tolist(), b.tolist()))
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])

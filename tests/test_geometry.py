@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from explore_rl.geometry import se2_between, se2_compose, wrap_angle
+from explore_rl.geometry import se2_between, se2_between_tuple, se2_compose, se2_compose_tuple, wrap_angle
 
 
 def _poses(n: int, seed: int) -> np.ndarray:
@@ -38,3 +38,10 @@ def test_single_pose_paths_return_new_float_arrays():
     out[0] = 99.0
     assert a[0] == 1 and b[0] == 0.5
     np.testing.assert_allclose(se2_compose((1.0, 2.0, 0.0), (0.5, 0.0, 0.0)), [1.5, 2.0, 0.0])
+
+
+def test_tuple_helpers_are_the_single_pose_paths():
+    a, b = _poses(50, 4), _poses(50, 5)
+    for i in range(len(a)):
+        assert se2_compose_tuple(tuple(a[i]), tuple(b[i])) == tuple(se2_compose(a[i], b[i]))
+        assert se2_between_tuple(tuple(a[i]), tuple(b[i])) == tuple(se2_between(a[i], b[i]))

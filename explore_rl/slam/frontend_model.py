@@ -80,7 +80,14 @@ import time
 
 import numpy as np
 
-from explore_rl.geometry import matrix_to_se2_tuple, se2_between, se2_compose, se2_to_matrix
+from explore_rl.geometry import (
+    matrix_to_se2_tuple,
+    se2_between,
+    se2_between_tuple,
+    se2_compose,
+    se2_compose_tuple,
+    se2_to_matrix,
+)
 from explore_rl.slam.calibration import (
     LoopClosureCalibration,
     ScanMatchingCalibration,
@@ -170,8 +177,8 @@ class ModelFrontend:
             self._true.append((0.0, 0.0, 0.0))
             self._wheel.append((0.0, 0.0, 0.0))
             return self._degenerate(wheel_delta, statistic, start)
-        self._true.append(compose(self._true[-1], matrix_to_se2_tuple(true_delta)))
-        self._wheel.append(compose(self._wheel[-1], wheel))
+        self._true.append(se2_compose_tuple(self._true[-1], matrix_to_se2_tuple(true_delta)))
+        self._wheel.append(se2_compose_tuple(self._wheel[-1], wheel))
 
         forced = self._since_anchor >= cal.max_span
         k = min(max(bisect.bisect_right(self._edges, statistic) - 1, 0), len(cal.degenerate_rate) - 1)
@@ -194,9 +201,9 @@ class ModelFrontend:
         condition = cal.condition(weak, turned)
         span = self._since_anchor + 1
         j = len(self._true) - 1
-        truth = between(self._true[j - span], self._true[j])
-        wheel_span = between(self._wheel[j - span], self._wheel[j])
-        wheel_error = between(truth, wheel_span)  # (x, y, yaw)
+        truth = se2_between_tuple(self._true[j - span], self._true[j])
+        wheel_span = se2_between_tuple(self._wheel[j - span], self._wheel[j])
+        wheel_error = se2_between_tuple(truth, wheel_span)  # (x, y, yaw)
         sigma_yaw_deg, sigma_t = condition.draw_sigmas(rng)
         sigma_yaw = math.radians(sigma_yaw_deg)
         # The yaw error of a fully constrained match scales with its reported sigma, as in
@@ -229,10 +236,10 @@ class ModelFrontend:
             yy = t_var * vy * vy + weak_var * uy * uy
             if weak == 2:  # the yaw is weak too: it keeps the prior
                 yaw_error, yaw_var = wheel_error[2], weak_var
-        measured = compose(truth, (error_x, error_y, yaw_error))
-        previous = between(self._wheel[j - span], self._wheel[j - 1])
+        measured = se2_compose_tuple(truth, (error_x, error_y, yaw_error))
+        previous = se2_between_tuple(self._wheel[j - span], self._wheel[j - 1])
         return ScanMatch(
-            relative=se2_to_matrix(between(previous, measured)),
+            relative=se2_to_matrix(se2_between_tuple(previous, measured)),
             covariance=covariance_6x6(yaw_var, xx, xy, yy, cal.off_plane_sigma**2),
             degenerate=False, weak_directions=weak, n_points=statistic, ms=0.0, n_inliers=0,
             span=span, span_relative=se2_to_matrix(measured))
@@ -245,23 +252,6 @@ class ModelFrontend:
 
 # Scalar SE(2) helpers: the vectorised ones in explore_rl.geometry cost ~40 us per call
 # on single poses, more than everything else the model does per keyframe.
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def compose(a, b) -> tuple[float, float, float]:
-    """``a (+) b`` for planar poses."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], _wrap(a[2] + b[2])
-
-
-def between(a, b) -> tuple[float, float, float]:
-    """``a^-1 (+) b`` for planar poses."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    return c * dx + s * dy, -s * dx + c * dy, _wrap(b[2] - a[2])
 
 
 def segments_clear(start_xy, ends_xy: np.ndarray, occupancy, step_fraction: float = 0.5) -> np.ndarray:
