@@ -19,6 +19,7 @@ import numpy as np
 
 from explore_rl.geometry import wrap_angle
 from explore_rl.grid import GridSpec
+from explore_rl.mapping import compiled
 from explore_rl.mapping.config import OccupancyConfig
 
 
@@ -120,14 +121,15 @@ def collapse_scan(
 
 class RayGridCollapse:
     """:func:`collapse_scan` for a LiDAR whose rays form a ``channels x azimuths`` grid
-    (channel-major) with one azimuth per bin: same :class:`Scan2D`, ~4x cheaper.
+    (channel-major) with one azimuth per bin: same :class:`Scan2D`, ~20x cheaper.
 
     When azimuth ``a`` of every channel lies in bin ``a`` well inside the bin (a VLP-16 at
     0.4 deg with 900 bins: on the bin centres), a point's bin is its ray's azimuth index
     (the point is the direction times a range, so its azimuth differs by rounding only),
     and a ray without return clears :func:`no_return_clearance` of its direction, fixed per
     ray. Per bin the nearest obstacle and the farthest free evidence are then a min and a
-    max over the channels of a ``(channels, azimuths)`` array instead of scattered
+    max over the channels, one compiled pass over the rays
+    (:func:`~explore_rl.mapping.compiled.collapse_ray_grid`) instead of scattered
     ``ufunc.at`` updates; the values are the same floats (min and max do not depend on the
     order). :meth:`aligned` says whether a ray grid qualifies.
     """
@@ -163,22 +165,12 @@ class RayGridCollapse:
     def __call__(self, points_sensor: np.ndarray, hit_index: np.ndarray) -> Scan2D:
         """The :class:`Scan2D` of a scan whose ``points_sensor`` are the returns of rays
         ``hit_index`` (increasing; the other rays had no return)."""
-        config, n = self.config, len(self.directions)
+        config = self.config
         points = np.asarray(points_sensor, dtype=float).reshape(-1, 3)
-        z_base = np.full(n, np.nan)
-        z_base[hit_index] = points[:, 2] + self.sensor_height
-        horizontal = np.zeros(n)
-        horizontal[hit_index] = np.hypot(points[:, 0], points[:, 1])
-        shape = (self.channels, config.azimuth_bins)
-
-        is_obstacle = (z_base >= config.obstacle_min_height) & (z_base <= config.obstacle_max_height)
-        nearest_obstacle = np.where(is_obstacle, horizontal, np.inf).reshape(shape).min(axis=0)
-        free = np.where(z_base < config.floor_max_height, horizontal, 0.0)
-        no_return = np.ones(n, dtype=bool)
-        no_return[hit_index] = False
-        free[no_return] = self._clearance[no_return]
-        farthest_free = np.maximum(free.reshape(shape).max(axis=0), 0.0)
-
+        nearest_obstacle, farthest_free = compiled.collapse_ray_grid(
+            points[:, 2], np.hypot(points[:, 0], points[:, 1]), np.asarray(hit_index, dtype=np.int64),
+            self._clearance, self.channels, config.azimuth_bins, self.sensor_height, config.floor_max_height,
+            config.obstacle_min_height, config.obstacle_max_height)
         hit = np.isfinite(nearest_obstacle)
         return Scan2D(self._angles.copy(), np.where(hit, nearest_obstacle, farthest_free), hit)
 
@@ -186,10 +178,14 @@ class RayGridCollapse:
 class OccupancyGrid:
     """Log-odds occupancy on a :class:`GridSpec` (``[iy, ix]`` indexing)."""
 
-    def __init__(self, grid: GridSpec, config: OccupancyConfig | None = None) -> None:
+    def __init__(self, grid: GridSpec, config: OccupancyConfig | None = None, compiled: bool = True) -> None:
+        """``compiled``: trace beams with the compiled loops (:mod:`explore_rl.mapping.compiled`),
+        else with the numpy reference (:meth:`beam_cells_reference`); the same cells."""
         self.grid = grid
         self.config = config or OccupancyConfig()
         self.log_odds = np.zeros(grid.shape, dtype=np.float32)
+        self.compiled = compiled
+        self._marks = np.zeros(0, dtype=np.uint8)  # the compiled tracer's scratch, one per cell
 
     # --- queries -------------------------------------------------------------------
     @property
@@ -227,6 +223,9 @@ class OccupancyGrid:
         flat, config = self.log_odds.reshape(-1), self.config
         # The sets are disjoint: step and clamp each in one gather and one scatter.
         low, high = config.log_odds_min, config.log_odds_max
+        if self.compiled:
+            compiled.step_log_odds(flat, free, occupied, config.log_odds_free, config.log_odds_occupied, low, high)
+            return
         flat[free] = np.clip(flat[free] + config.log_odds_free, low, high)
         flat[occupied] = np.clip(flat[occupied] + config.log_odds_occupied, low, high)
 
@@ -265,8 +264,22 @@ class OccupancyGrid:
         """Flat indices of the cells a scan sees free and occupied (sorted, disjoint).
 
         Works in cell units: every beam is sampled each ``ray_step_cells`` up to its
-        range; a hit end cell is occupied and never free in the same scan.
+        range; a hit end cell is occupied and never free in the same scan. Traced by the
+        compiled loops unless the grid was made with ``compiled=False``.
         """
+        if not self.compiled:
+            return self.beam_cells_reference(scan, pose_se2)
+        origin, cos, sin, ranges, hit = self._beams(scan, pose_se2)
+        if len(self._marks) != self.log_odds.size:
+            self._marks = np.zeros(self.log_odds.size, dtype=np.uint8)
+        ny, nx = self.grid.shape
+        return compiled.trace_beams(origin[0], origin[1], cos, sin, ranges, hit, self.config.ray_step_cells,
+                                    self._samples_per_beam(ranges), self.config.hit_nudge_cells, nx, ny,
+                                    self._marks)
+
+    def _beams(self, scan: Scan2D, pose_se2: np.ndarray) -> tuple[tuple[float, float], np.ndarray, np.ndarray,
+                                                                   np.ndarray, np.ndarray]:
+        """The informative beams in cell units: origin, direction cosines and sines, ranges, hits."""
         res = self.grid.resolution
         x, y, yaw = (float(v) for v in pose_se2)
         origin = ((x - self.grid.origin[0]) / res, (y - self.grid.origin[1]) / res)
@@ -274,10 +287,16 @@ class OccupancyGrid:
         ranges = scan.ranges[keep] / res
         hit = scan.hit[keep]
         angles = scan.angles[keep] + yaw
-        cos, sin = np.cos(angles), np.sin(angles)
+        return origin, np.cos(angles), np.sin(angles), ranges, hit
 
-        step = self.config.ray_step_cells
-        t = np.arange(int(np.ceil(ranges.max() / step)) if len(ranges) else 0) * step
+    def _samples_per_beam(self, ranges: np.ndarray) -> int:
+        """Samples of the longest beam (the other beams stop below their ranges)."""
+        return int(np.ceil(ranges.max() / self.config.ray_step_cells)) if len(ranges) else 0
+
+    def beam_cells_reference(self, scan: Scan2D, pose_se2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`beam_cells` in numpy: every beam's samples as one array, marked in full-grid masks."""
+        origin, cos, sin, ranges, hit = self._beams(scan, pose_se2)
+        t = np.arange(self._samples_per_beam(ranges)) * self.config.ray_step_cells
         before_end = t[None, :] < ranges[:, None]
         free = self._mark(
             (origin[0] + cos[:, None] * t)[before_end], (origin[1] + sin[:, None] * t)[before_end]

@@ -228,7 +228,7 @@ def reference_maps(session: "SlamSession") -> tuple[OccupancyGrid, VoxelMap]:
     :meth:`VoxelMap.rebuild`) at the session's map poses (:attr:`SlamSession.map_poses`,
     :attr:`SlamSession.voxel_poses`): what either update mode must equal (tests,
     ``benchmarks/bench_drive.py``)."""
-    occupancy = OccupancyGrid(session.scene.grid, session.mapping.occupancy)
+    occupancy = OccupancyGrid(session.scene.grid, session.mapping.occupancy, compiled=False)
     occupancy.rebuild([k.scan2d for k in session.keyframes], session.map_poses)
     voxels = VoxelMap(session.mapping.voxels)
     voxels.rebuild([k.cloud for k in session.keyframes], list(session.world_from_sensor(session.voxel_poses)))
@@ -253,8 +253,9 @@ class SlamSession:
         self.graph = PoseGraph(config.pose_graph, start_pose)
         self.frontend = make_frontend(config)
         self.loop_closer = make_loop_closer(config)
-        self.occupancy = OccupancyGrid(scene.grid, mapping.occupancy)
         self.incremental = mapping.updates == "incremental"
+        # the reference updates keep the numpy tracing (the same cells, see mapping.compiled)
+        self.occupancy = OccupancyGrid(scene.grid, mapping.occupancy, compiled=self.incremental)
         self._collapse = self._ray_grid_collapse() if self.incremental else None
         self.voxels: VoxelCounts | VoxelMap = (VoxelCounts if self.incremental else VoxelMap)(mapping.voxels)
         self._cells: list[tuple[np.ndarray, np.ndarray]] = []  # per keyframe, at its map pose (incremental)
