@@ -24,10 +24,11 @@ Per candidate with a predicted loop (:func:`loop_update`), instead of copying iS
    of the revisited keyframes ``r`` and of the last keyframe (rank ``3m`` and three
    columns each when planar and off-plane dofs are decoupled);
 3. the virtual map is fused again from the prior, in the same order and by the same
-   covariance intersection as the reference, but for all loop candidates in one pass of
-   rounds (:func:`fuse_batched`): a round costs ~20 numpy calls whatever its size, and
-   there are as many rounds as the most-seen landmark has observations (~150-200 on
-   office graphs). Candidates whose paths agree up to their last loop leave bitwise the
+   covariance intersection as the reference, but for all loop candidates at once
+   (:func:`fuse_batched`: one compiled loop over each landmark's observations for each
+   set; :func:`fuse_batched_reference`, the same in numpy rounds, a round ~20 numpy
+   calls whatever its size, as many rounds as the most-seen landmark has observations,
+   ~150-200 on office graphs). Candidates whose paths agree up to their last loop leave bitwise the
    same old covariances (about a third of them): each distinct set is fused once
    (:func:`distinct`). An observation's covariance ``noise + gain S gain^T`` is a linear
    function of the pose covariance ``S`` (gains ``[-I | lever]``: :func:`lever_terms`),
@@ -59,6 +60,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
+from explore_rl.planning.compiled import fuse_rounds
 from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 from explore_rl.sorting import stable_argsort
@@ -393,7 +395,15 @@ def fuse_batched(rounds: FuseRounds, pose_covs: np.ndarray, initial: np.ndarray)
     """``(C, S, 2, 2)``: the landmarks of ``rounds`` after fusing every observation into
     ``initial (S, 2, 2)``, for ``C`` sets of pose covariances ``pose_covs (C, N, 3, 3)`` at
     once -- :func:`~explore_rl.planning.virtual_map.fuse_in_order` per set (same order, the
-    same covariance intersection), one pass of rounds for all sets."""
+    same covariance intersection). The compiled loop
+    (:func:`~explore_rl.planning.compiled.fuse_rounds`): the same floats as
+    :func:`fuse_batched_reference`."""
+    return fuse_rounds(rounds.offsets, rounds.pose_idx, rounds.terms, pose_covs, information_components(initial))
+
+
+def fuse_batched_reference(rounds: FuseRounds, pose_covs: np.ndarray, initial: np.ndarray) -> np.ndarray:
+    """:func:`fuse_batched` in numpy: one pass of rounds for all sets (the reference of
+    the compiled loop, and its equivalence test)."""
     observed = observed_information(rounds.terms, pose_covs, rounds.pose_idx)  # (4, M, C)
     info = np.repeat(information_components(initial)[:, :, None], len(pose_covs), axis=2)  # (3, S, C)
     with np.errstate(divide="ignore", invalid="ignore"):

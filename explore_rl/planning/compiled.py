@@ -1,0 +1,88 @@
+"""Compiled loop of EM's landmark fusion (numba), beside the numpy rounds it stands for.
+
+EM scores every frontier by fusing each virtual landmark's observations in pose order
+(covariance intersection), for the current graph and for every loop candidate's graph at
+once. The numpy version (:func:`~explore_rl.planning.em_fast.fuse_batched_reference`) runs
+one round per observation rank, ~20 numpy passes a round over ``(landmarks, sets)``
+arrays, plus a ``(4, rows, sets)`` temporary of every observation's information: on office
+decisions about half of the fast reward's time. Here one loop walks each landmark's
+observations for each set of pose covariances and keeps the running information in
+registers.
+
+The kernel performs the same float operations in the same order as the numpy code
+(:func:`~explore_rl.planning.em_fast.observed_information`'s sums of products, then
+:func:`~explore_rl.planning.em_fast.intersect`'s determinant polynomial and clamped
+weight, then :func:`~explore_rl.planning.em_fast.covariances_of`), so the fused
+covariances are the same floats; ``tests/planning/test_compiled.py`` compares the two.
+Compiled on first use and cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, error_model="numpy")
+def fuse_rounds(offsets: np.ndarray, pose_idx: np.ndarray, terms: np.ndarray, pose_covs: np.ndarray,
+                initial: np.ndarray) -> np.ndarray:
+    """``(C, S, 2, 2)`` fused landmark covariances.
+
+    ``offsets (R + 1,)``, ``pose_idx (M,)``, ``terms (10, M)``: a
+    :class:`~explore_rl.planning.em_fast.FuseRounds` (round ``r`` holds the ``r``-th
+    observation of columns ``0 .. offsets[r + 1] - offsets[r] - 1``); ``pose_covs (C, N, 3,
+    3)``: the sets of pose covariances; ``initial (3, S)``: the landmarks' information
+    components before fusion. A zero determinant gives inf or nan, as numpy under
+    ``errstate(divide="ignore", invalid="ignore")``.
+    """
+    num_sets, num_columns = pose_covs.shape[0], initial.shape[1]
+    num_rounds = len(offsets) - 1
+    out = np.empty((num_sets, num_columns, 2, 2))
+    for c in range(num_sets):
+        for s in range(num_columns):
+            i00, i01, i11 = initial[0, s], initial[1, s], initial[2, s]
+            for r in range(num_rounds):
+                row = offsets[r] + s
+                if row >= offsets[r + 1]:  # columns sorted by observation count: none later either
+                    break
+                o0, o1, o2, o3 = _observed(terms, row, pose_covs, c, pose_idx[row])
+                i00, i01, i11 = _intersect(i00, i01, i11, o0, o1, o2, o3)
+            det = i00 * i11 - i01 * i01
+            out[c, s, 0, 0] = i11 / det
+            out[c, s, 0, 1] = out[c, s, 1, 0] = -i01 / det
+            out[c, s, 1, 1] = i00 / det
+    return out
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _observed(terms: np.ndarray, row: int, pose_covs: np.ndarray, c: int, p: int) -> tuple:
+    """``(i00, i01, i11, 2 i01)`` of one observation's information ``(noise + gain S
+    gain^T)^-1``: ``observed_information`` for one row and one set, operation for operation."""
+    s00, s01, s02 = pose_covs[c, p, 0, 0], pose_covs[c, p, 0, 1], pose_covs[c, p, 0, 2]
+    s11, s12, s22 = pose_covs[c, p, 1, 1], pose_covs[c, p, 1, 2], pose_covs[c, p, 2, 2]
+    c00 = ((terms[1, row] * s02 + terms[0, row]) + s00) + terms[2, row] * s22
+    c01 = (((terms[4, row] * s02 + terms[3, row]) + s01) + terms[5, row] * s12) + terms[6, row] * s22
+    c11 = ((terms[8, row] * s12 + terms[7, row]) + s11) + terms[9, row] * s22
+    det = c00 * c11 - c01 * c01
+    o1 = -(c01 / det)
+    return c11 / det, o1, c00 / det, o1 * 2.0
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _intersect(i00: float, i01: float, i11: float, o0: float, o1: float, o2: float, o3: float) -> tuple:
+    """One covariance intersection of the running information with an observation's:
+    ``intersect`` for one landmark and one set, operation for operation."""
+    d00, d01, d11 = i00 - o0, i01 - o1, i11 - o2
+    quad = d00 * d11 - d01 * d01
+    lin = (o0 * d11 + o2 * d00) - o3 * d01
+    stationary = lin / (-2.0 * quad)
+    if stationary < 0.0:  # np.maximum then np.minimum: a nan stays nan
+        stationary = 0.0
+    elif stationary > 1.0:
+        stationary = 1.0
+    lin += quad
+    if quad < 0:
+        weight = stationary
+    else:
+        weight = 1.0 if lin > 0 else 0.0
+    return d00 * weight + o0, d01 * weight + o1, d11 * weight + o2
