@@ -6,8 +6,7 @@ once. The numpy version (:func:`~explore_rl.planning.em_fast.fuse_batched_refere
 one round per observation rank, ~20 numpy passes a round over ``(landmarks, sets)``
 arrays, plus a ``(4, rows, sets)`` temporary of every observation's information: on office
 decisions about half of the fast reward's time. Here one loop walks each landmark's
-observations for each set of pose covariances and keeps the running information in
-registers.
+rounds for each set of pose covariances, in place on one array of running information.
 
 The kernel performs the same float operations in the same order as the numpy code
 (:func:`~explore_rl.planning.em_fast.observed_information`'s sums of products, then
@@ -36,17 +35,24 @@ def fuse_rounds(offsets: np.ndarray, pose_idx: np.ndarray, terms: np.ndarray, po
     ``errstate(divide="ignore", invalid="ignore")``.
     """
     num_sets, num_columns = pose_covs.shape[0], initial.shape[1]
-    num_rounds = len(offsets) - 1
+    info = np.empty((num_sets, num_columns, 3))  # the running information of each landmark and set
+    for c in range(num_sets):
+        for s in range(num_columns):
+            info[c, s, 0], info[c, s, 1], info[c, s, 2] = initial[0, s], initial[1, s], initial[2, s]
+    # Round by round, as the numpy code: a round's landmarks are independent, so their
+    # intersections overlap in the pipeline (one landmark's rounds are a chain of divisions).
+    for c in range(num_sets):
+        for r in range(len(offsets) - 1):
+            begin = offsets[r]
+            for s in range(offsets[r + 1] - begin):
+                row = begin + s
+                o0, o1, o2, o3 = _observed(terms, row, pose_covs, c, pose_idx[row])
+                info[c, s, 0], info[c, s, 1], info[c, s, 2] = _intersect(info[c, s, 0], info[c, s, 1],
+                                                                         info[c, s, 2], o0, o1, o2, o3)
     out = np.empty((num_sets, num_columns, 2, 2))
     for c in range(num_sets):
         for s in range(num_columns):
-            i00, i01, i11 = initial[0, s], initial[1, s], initial[2, s]
-            for r in range(num_rounds):
-                row = offsets[r] + s
-                if row >= offsets[r + 1]:  # columns sorted by observation count: none later either
-                    break
-                o0, o1, o2, o3 = _observed(terms, row, pose_covs, c, pose_idx[row])
-                i00, i01, i11 = _intersect(i00, i01, i11, o0, o1, o2, o3)
+            i00, i01, i11 = info[c, s, 0], info[c, s, 1], info[c, s, 2]
             det = i00 * i11 - i01 * i01
             out[c, s, 0, 0] = i11 / det
             out[c, s, 0, 1] = out[c, s, 1, 0] = -i01 / det
@@ -76,13 +82,9 @@ def _intersect(i00: float, i01: float, i11: float, o0: float, o1: float, o2: flo
     quad = d00 * d11 - d01 * d01
     lin = (o0 * d11 + o2 * d00) - o3 * d01
     stationary = lin / (-2.0 * quad)
-    if stationary < 0.0:  # np.maximum then np.minimum: a nan stays nan
-        stationary = 0.0
-    elif stationary > 1.0:
-        stationary = 1.0
+    stationary = 0.0 if stationary < 0.0 else stationary  # np.maximum then np.minimum: a nan stays nan
+    stationary = 1.0 if stationary > 1.0 else stationary
     lin += quad
-    if quad < 0:
-        weight = stationary
-    else:
-        weight = 1.0 if lin > 0 else 0.0
+    endpoint = 1.0 if lin > 0 else 0.0
+    weight = stationary if quad < 0 else endpoint
     return d00 * weight + o0, d01 * weight + o1, d11 * weight + o2
