@@ -20,7 +20,7 @@ Office, ``slam=model``, one process, the same seed, starts and random valid acti
 
 ``--profile`` instead runs cProfile over the random-action episodes (at least
 ``PROFILE_DECISIONS`` decisions) with each backend: the share of each part and the top
-functions inside reward and drive, written to ``benchmarks/results/profile_env_<backend>.txt``.
+functions inside context, reward and drive, written to ``benchmarks/results/profile_env_<backend>.txt``.
 
 ``--set KEY=VALUE ...``: config overrides of every env (e.g. ``slam=model_45deg``).
 
@@ -217,15 +217,17 @@ def benchmark(args: argparse.Namespace) -> None:
 
 
 class PartProfiler:
-    """cProfile switched on only inside ``EMPlanner.evaluate`` (reward) or ``Explorer.act``
-    (drive): the functions each part spends its time in."""
+    """cProfile switched on only inside ``EMPlanner.decision_context`` (context),
+    ``EMPlanner.evaluate`` (reward) or ``Explorer.act`` (drive): the functions each part
+    spends its time in."""
 
     def __init__(self) -> None:
-        self.profiles = {"reward": cProfile.Profile(), "drive": cProfile.Profile()}
+        self.profiles = {part: cProfile.Profile() for part in ("context", "reward", "drive")}
         self._originals = {}
 
     def __enter__(self) -> PartProfiler:
-        for part, owner, name in (("reward", EMPlanner, "evaluate"), ("drive", Explorer, "act")):
+        for part, owner, name in (("context", EMPlanner, "decision_context"), ("reward", EMPlanner, "evaluate"),
+                                  ("drive", Explorer, "act")):
             original = getattr(owner, name)
             self._originals[(owner, name)] = original
             setattr(owner, name, self._wrap(self.profiles[part], original))
@@ -252,7 +254,7 @@ class PartProfiler:
 
 
 def profile(args: argparse.Namespace) -> None:
-    """Shares of each part and the top functions inside reward and drive, per backend."""
+    """Shares of each part and the top functions inside context, reward and drive, per backend."""
     minimum = 2 if args.smoke else PROFILE_DECISIONS
     config = load_config(["scene=office", "slam=model", "seed=0", "explore.progress_bar=false",
                           "explore.max_decisions=300", *args.set])
@@ -267,7 +269,8 @@ def profile(args: argparse.Namespace) -> None:
                 f"{run['episodes']} episodes, {run['decisions_per_s']} decisions/s, {step} ms per decision, "
                 f"load {machine()['load_average_1min']}",
                 "share of a step: " + ", ".join(f"{k} {100 * v:.1f} % ({run[f'ms_{k}']} ms)" for k, v in shares.items()),
-                "", "=== inside reward (EMPlanner.evaluate), by own time ===", profiler.top("reward"),
+                "", "=== inside context (EMPlanner.decision_context), by own time ===", profiler.top("context"),
+                "=== inside reward (EMPlanner.evaluate), by own time ===", profiler.top("reward"),
                 "=== inside drive (Explorer.act), by own time ===", profiler.top("drive")]
         if not args.smoke:
             RESULTS.mkdir(exist_ok=True)

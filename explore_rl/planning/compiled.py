@@ -88,3 +88,53 @@ def _intersect(i00: float, i01: float, i11: float, o0: float, o1: float, o2: flo
     endpoint = 1.0 if lin > 0 else 0.0
     weight = stationary if quad < 0 else endpoint
     return d00 * weight + o0, d01 * weight + o1, d11 * weight + o2
+
+
+@numba.njit(cache=True)
+def round_layout(landmark_idx: np.ndarray, pose_idx: np.ndarray, gain: np.ndarray,
+                 noise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(offsets, landmarks, pose_idx, terms)`` of a
+    :class:`~explore_rl.planning.em_fast.FuseRounds` from observations in pose order, by
+    counting instead of sorting: columns are the landmarks by observation count, most
+    first (ties by landmark id), round ``r`` holds the ``r``-th observation of each column
+    seen more than ``r`` times, and ``terms`` are
+    :func:`~explore_rl.planning.em_fast.lever_terms` of each row in round order."""
+    num_rows = len(landmark_idx)
+    num_ids = landmark_idx.max() + 1 if num_rows else 0
+    counts = np.zeros(num_ids, dtype=np.int64)
+    for i in range(num_rows):
+        counts[landmark_idx[i]] += 1
+    most = counts.max() if num_ids else 0
+    # columns: by count descending, ids ascending within a count (a stable sort of -count)
+    with_count = np.zeros(most + 2, dtype=np.int64)  # with_count[k]: landmarks seen exactly k times
+    for lm in range(num_ids):
+        with_count[counts[lm]] += 1
+    first_column = np.zeros(most + 2, dtype=np.int64)  # first column of the landmarks seen k times
+    for k in range(most - 1, 0, -1):
+        first_column[k] = first_column[k + 1] + with_count[k + 1]
+    num_columns = num_ids - with_count[0]
+    column = np.empty(num_ids, dtype=np.int64)
+    landmarks = np.empty(num_columns, dtype=np.int64)
+    for lm in range(num_ids):
+        if counts[lm]:
+            column[lm] = first_column[counts[lm]]
+            first_column[counts[lm]] += 1
+            landmarks[column[lm]] = lm
+    offsets = np.zeros(most + 1, dtype=np.int64)  # round r: the columns seen more than r times
+    remaining = num_columns
+    for r in range(most):
+        offsets[r + 1] = offsets[r] + remaining
+        remaining -= with_count[r + 1]
+    rank = np.zeros(num_ids, dtype=np.int64)
+    rows_pose = np.empty(num_rows, dtype=pose_idx.dtype)
+    terms = np.empty((10, num_rows))
+    for i in range(num_rows):
+        lm = landmark_idx[i]
+        q = offsets[rank[lm]] + column[lm]
+        rank[lm] += 1
+        rows_pose[q] = pose_idx[i]
+        a, b = gain[i, 0, 2], gain[i, 1, 2]
+        terms[0, q], terms[1, q], terms[2, q] = noise[i, 0, 0], -2.0 * a, a * a
+        terms[3, q], terms[4, q], terms[5, q], terms[6, q] = noise[i, 0, 1], -b, -a, a * b
+        terms[7, q], terms[8, q], terms[9, q] = noise[i, 1, 1], -2.0 * b, b * b
+    return offsets, landmarks, rows_pose, terms

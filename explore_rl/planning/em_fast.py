@@ -60,7 +60,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
-from explore_rl.planning.compiled import fuse_rounds
+from explore_rl.planning.compiled import fuse_rounds, round_layout
 from explore_rl.slam.marginals import BLOCK, SparseMarginals, scalar_indices
 from explore_rl.slam.pose_graph import PoseGraph, odometry_covariance
 from explore_rl.sorting import stable_argsort
@@ -374,7 +374,15 @@ class FuseRounds:
 
     @classmethod
     def of(cls, observations: Observations) -> FuseRounds:
-        """``observations`` (gains ``[-I | lever]``: :meth:`Observations.closed_form`)."""
+        """``observations`` (gains ``[-I | lever]``: :meth:`Observations.closed_form`), laid
+        out by counting (:func:`~explore_rl.planning.compiled.round_layout`): the same
+        arrays as :meth:`of_reference`."""
+        return cls(*round_layout(observations.landmark_idx, observations.pose_idx, observations.gain,
+                                 observations.noise))
+
+    @classmethod
+    def of_reference(cls, observations: Observations) -> FuseRounds:
+        """:meth:`of` by numpy sorts (the reference of the compiled layout)."""
         landmark_idx = observations.landmark_idx
         order = stable_argsort(landmark_idx)
         sorted_lm = landmark_idx[order]

@@ -53,7 +53,8 @@ def test_a_singular_observation_gives_what_numpy_gives():
 
 def test_compiled_fusion_equals_the_rounds_in_em_decisions(monkeypatch):
     """Every fusion of EM's decisions in a real office episode (U0 and the loop candidates'
-    sets), compiled and in numpy rounds: the same floats."""
+    sets), compiled and in numpy rounds, and every round layout, counted and sorted: the
+    same floats."""
     calls = []
 
     def recording(rounds, pose_covs, initial):
@@ -61,6 +62,14 @@ def test_compiled_fusion_equals_the_rounds_in_em_decisions(monkeypatch):
         return fuse_batched(rounds, pose_covs, initial)
 
     monkeypatch.setattr("explore_rl.planning.em.fuse_batched", recording)
+    layouts = []
+    counted = FuseRounds.of.__func__
+
+    def recording_layout(cls, observations):
+        layouts.append(observations)
+        return counted(cls, observations)
+
+    monkeypatch.setattr(FuseRounds, "of", classmethod(recording_layout))
     config = load_config(["scene=office", "slam=model", "seed=0", "policy=em", "explore.progress_bar=false",
                           "explore.max_decisions=4"])
     Explorer(config).run()
@@ -68,3 +77,24 @@ def test_compiled_fusion_equals_the_rounds_in_em_decisions(monkeypatch):
     assert len(calls) >= 4 and batched  # U0 of each decision, and candidates' sets together
     for rounds, pose_covs, initial in calls:
         assert_same_fusion(rounds, pose_covs, initial)
+    monkeypatch.undo()  # FuseRounds.of itself again, unrecorded
+    assert len(layouts) >= 4
+    for observations in layouts:
+        assert_same_rounds(observations)
+
+
+def assert_same_rounds(observations: Observations) -> None:
+    rounds, expected = FuseRounds.of(observations), FuseRounds.of_reference(observations)
+    for name in ("offsets", "landmarks", "pose_idx", "terms"):
+        got, want = getattr(rounds, name), getattr(expected, name)
+        assert got.shape == want.shape, name
+        np.testing.assert_array_equal(got, want, err_msg=name)
+
+
+def test_counted_rounds_equal_the_sorted_rounds():
+    """Random observations (ties in the counts, unseen landmark ids between seen ones) and none."""
+    rng = np.random.default_rng(6)
+    for count in (0, 1, 7, 3000):
+        gain, noise = lever_observations(rng, count)
+        assert_same_rounds(Observations(np.sort(rng.integers(0, 40, count)), rng.integers(0, 90, count),
+                                        gain, noise))
