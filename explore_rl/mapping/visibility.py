@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from explore_rl.grid import GridSpec
-from explore_rl.mapping import compiled
+from explore_rl.mapping import compiled as _compiled
+from explore_rl.sorting import stable_argsort
 
 
 def line_of_sight(
@@ -89,6 +90,9 @@ def _segments_clear(
     return ~np.any(hit, axis=1)
 
 
+LENGTH_GROUPS = 8  # compiled=False: segments sorted by length into this many groups of equal count
+
+
 def line_of_sight_by_length(
     start_xy: np.ndarray,
     end_xy: np.ndarray,
@@ -96,13 +100,18 @@ def line_of_sight_by_length(
     grid: GridSpec,
     step_fraction: float,
     end_box: float = 0.0,
+    max_batch_samples: int = 2_000_000,
+    compiled: bool = True,
 ) -> np.ndarray:
     """:func:`line_of_sight`, the same samples and answers, cheaper for many segments of
     mixed lengths on a mostly free grid: a segment whose bounding box (one cell wider
     on each side than any sample can reach) holds no blocked cell is clear without
     sampling (a summed-area table of the blocked cells); the others are walked one at a
     time by a compiled loop (:func:`~explore_rl.mapping.compiled.segments_clear`), each
-    only as far as its own stop or its first blocked sample."""
+    only as far as its own stop or its first blocked sample. ``compiled=False`` (the
+    numpy baseline of that loop): they are sorted by length into ``LENGTH_GROUPS`` groups,
+    each sampled as far as its longest needs (``max_batch_samples`` samples a batch), and
+    a segment is blocked when its first blocked sample lies before its stop."""
     start_xy, end_xy, blocked = _segment_inputs(start_xy, end_xy, blocked, grid)
     clear = np.ones(len(start_xy), dtype=bool)
     if len(start_xy) == 0:
@@ -115,11 +124,23 @@ def line_of_sight_by_length(
     if end_box > 0:  # _box_entry_distance, the steeper component without a reduction
         steepest = np.maximum(np.maximum(np.abs(unit[:, 0]), np.abs(unit[:, 1])), np.finfo(float).tiny)
         stop = np.maximum(length - 0.5 * end_box / steepest, 0.0)
+    step = step_fraction * grid.resolution
     padded = np.pad(blocked, 1)
     maybe = np.flatnonzero(_box_holds_blocked(start_xy, end_xy, padded, grid))
-    clear[maybe] = compiled.segments_clear(start_xy[maybe], unit[maybe], stop[maybe], padded.ravel(),
-                                           float(grid.origin[0]), float(grid.origin[1]), float(grid.resolution),
-                                           int(grid.nx), int(grid.ny), step_fraction * grid.resolution)
+    if compiled:
+        clear[maybe] = _compiled.segments_clear(start_xy[maybe], unit[maybe], stop[maybe], padded.ravel(),
+                                                float(grid.origin[0]), float(grid.origin[1]),
+                                                float(grid.resolution), int(grid.nx), int(grid.ny), step)
+        return clear
+    samples = np.maximum(np.ceil(stop / step).astype(np.int64), 1)
+    order = maybe[stable_argsort(samples[maybe])]
+    padded = padded.ravel()
+    for group in np.array_split(order, min(LENGTH_GROUPS, len(order))) if len(order) else []:
+        n_samples = int(samples[group[-1]])
+        batch = max(1, max_batch_samples // n_samples)
+        for lo in range(0, len(group), batch):
+            rows = group[lo: lo + batch]
+            clear[rows] = _first_hit_clear(start_xy[rows], unit[rows], stop[rows], padded, grid, step, n_samples)
     return clear
 
 
@@ -137,3 +158,25 @@ def _box_holds_blocked(start_xy: np.ndarray, end_xy: np.ndarray, padded_blocked:
     count = (table[high[:, 1], high[:, 0]] - table[low[:, 1], high[:, 0]] - table[high[:, 1], low[:, 0]]
              + table[low[:, 1], low[:, 0]])
     return count > 0
+
+
+def _first_hit_clear(start_xy: np.ndarray, unit: np.ndarray, stop: np.ndarray, padded_blocked: np.ndarray,
+                     grid: GridSpec, step: float, n_samples: int) -> np.ndarray:
+    """:func:`_segments_clear` (same sample positions and cells): clipping the sample
+    coordinates before truncating them gives the same cells, and a segment is blocked
+    iff its first blocked sample lies before its stop."""
+    t = step * np.arange(1, n_samples + 1)
+    col = (start_xy[:, 0:1] - grid.origin[0]) / grid.resolution + 1.0
+    row = (start_xy[:, 1:2] - grid.origin[1]) / grid.resolution + 1.0
+    x = (t / grid.resolution) * unit[:, 0:1]
+    x += col
+    np.clip(x, 0, grid.nx + 1, out=x)
+    y = (t / grid.resolution) * unit[:, 1:2]
+    y += row
+    np.clip(y, 0, grid.ny + 1, out=y)
+    cell = y.astype(np.int32)
+    cell *= grid.nx + 2
+    cell += x.astype(np.int32)
+    hit = padded_blocked[cell]
+    first = np.argmax(hit, axis=1)
+    return ~(hit[np.arange(len(first)), first] & (t[first] < stop))

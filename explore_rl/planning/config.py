@@ -21,7 +21,7 @@ class VirtualMapConfig:
     sensor_range: float = 3.0  # m; landmarks farther than this are not observed
     min_range: float = 0.25  # m; the range is clamped below at this value
     los_step_fraction: float = 0.5  # line-of-sight sample step, in fine grid cells
-    max_batch_samples: int = 2_000_000  # line-of-sight samples per numpy batch (the reference test, by_length=False)
+    max_batch_samples: int = 2_000_000  # line-of-sight samples evaluated per numpy batch
 
 
 @dataclass

@@ -277,11 +277,16 @@ class VirtualMap:
         answers from :func:`~explore_rl.mapping.visibility.line_of_sight_by_length` (segments
         far from any blocked cell unsampled, the others walked by a compiled loop; EM's fast
         backend), else from ``line_of_sight``."""
-        segments = (np.asarray(poses, float)[:, :2], self.landmark_xy[landmark_idx], blocked, self.grid,
-                    self.config.los_step_fraction)
-        if by_length:
-            return line_of_sight_by_length(*segments, end_box=self.config.cell_size)
-        return line_of_sight(*segments, end_box=self.config.cell_size, max_batch_samples=self.config.max_batch_samples)
+        visibility = line_of_sight_by_length if by_length else line_of_sight
+        return visibility(
+            np.asarray(poses, float)[:, :2],
+            self.landmark_xy[landmark_idx],
+            blocked,
+            self.grid,
+            self.config.los_step_fraction,
+            end_box=self.config.cell_size,
+            max_batch_samples=self.config.max_batch_samples,
+        )
 
     def predict_landmark_covariances(
         self,

@@ -33,7 +33,8 @@ def test_line_of_sight_cases():
 def test_line_of_sight_by_length_gives_the_same_answers():
     """Random segments of all lengths (inside, across and outside the grid, some degenerate)
     on a room with walls and clutter: the same answer as :func:`line_of_sight` for every
-    segment, with and without an end box, at two sample steps."""
+    segment, with and without an end box, at two sample steps, compiled and in numpy (also in
+    tiny batches)."""
     grid, blocked = wall_grid()
     rng = np.random.default_rng(3)
     blocked[70:72, 10:60] = True
@@ -45,5 +46,10 @@ def test_line_of_sight_by_length_gives_the_same_answers():
         for end_box in (0.0, 0.5):
             expected = line_of_sight(start, end, blocked, grid, step, end_box)
             assert 0.2 < expected.mean() < 0.95  # both answers are common
-            np.testing.assert_array_equal(line_of_sight_by_length(start, end, blocked, grid, step, end_box), expected)
+            for compiled in (True, False):
+                np.testing.assert_array_equal(
+                    line_of_sight_by_length(start, end, blocked, grid, step, end_box, compiled=compiled), expected)
+    small = line_of_sight_by_length(start[:300], end[:300], blocked, grid, 0.5, 0.5, max_batch_samples=1,
+                                    compiled=False)
+    np.testing.assert_array_equal(small, line_of_sight(start[:300], end[:300], blocked, grid, 0.5, 0.5))
     assert line_of_sight_by_length(start[:0], end[:0], blocked, grid, 0.5).shape == (0,)
