@@ -185,14 +185,18 @@ class VoxelCounts:
         return compiled.flat_voxel_indices(keys, self.lower, self.counts.shape[1], self.counts.shape[2])
 
     def _grow(self, low: np.ndarray, high: np.ndarray) -> None:
-        """Enlarge the box to hold keys ``low..high`` plus a margin (amortises growth)."""
+        """Enlarge the box to hold keys ``low..high`` plus a margin on each side that grows:
+        ``_GROW_MARGIN`` voxels or half the box's extent along that axis, whichever is more
+        (geometric growth: a map that keeps expanding copies its box a logarithmic number of
+        times, not once per ``_GROW_MARGIN`` of travel)."""
         shape = np.array(self.counts.shape, dtype=np.int64)
         if shape.prod() == 0:
             new_low, new_high = low - _GROW_MARGIN, high + 1 + _GROW_MARGIN
         else:
-            new_low = np.where(low < self.lower, low - _GROW_MARGIN, self.lower)
+            margin = np.maximum(_GROW_MARGIN, shape // 2)
+            new_low = np.where(low < self.lower, low - margin, self.lower)
             upper = self.lower + shape
-            new_high = np.where(high >= upper, high + 1 + _GROW_MARGIN, upper)
+            new_high = np.where(high >= upper, high + 1 + margin, upper)
         grown = np.zeros(tuple(int(n) for n in new_high - new_low), dtype=np.int32)
         if shape.prod():
             o = self.lower - new_low
