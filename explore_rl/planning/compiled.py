@@ -1,22 +1,29 @@
-"""Compiled loop of EM's landmark fusion (numba), beside the numpy rounds it stands for.
+"""Compiled loops of EM's decision (numba), beside the numpy code they stand for.
 
 EM scores every frontier by fusing each virtual landmark's observations in pose order
 (covariance intersection), for the current graph and for every loop candidate's graph at
 once. The numpy version (:func:`~explore_rl.planning.em_fast.fuse_batched_reference`) runs
 one round per observation rank, ~20 numpy passes a round over ``(landmarks, sets)``
 arrays, plus a ``(4, rows, sets)`` temporary of every observation's information: on office
-decisions about half of the fast reward's time. Here one loop walks each landmark's
-rounds for each set of pose covariances, in place on one array of running information.
+decisions about half of the fast reward's time. Here (:func:`fuse_rounds`) one loop walks
+the rounds for each set of pose covariances, in place on one array of running
+information; the rounds themselves are laid out by counting (:func:`round_layout`)
+instead of three sorts, and the landmarks in range of each pose are found by walking its
+window (:func:`window_pairs`) instead of numpy passes over every pose's whole window.
 
-The kernel performs the same float operations in the same order as the numpy code
+Each kernel performs the same float operations in the same order as the numpy code
 (:func:`~explore_rl.planning.em_fast.observed_information`'s sums of products, then
 :func:`~explore_rl.planning.em_fast.intersect`'s determinant polynomial and clamped
-weight, then :func:`~explore_rl.planning.em_fast.covariances_of`), so the fused
-covariances are the same floats; ``tests/planning/test_compiled.py`` compares the two.
-Compiled on first use and cached on disk (``cache=True``).
+weight, then :func:`~explore_rl.planning.em_fast.covariances_of`; the window's ``floor``
+and the norm's sum of squares), so the answers are the same floats and pairs;
+``tests/planning/test_compiled.py`` compares them, and ``benchmarks/bench_kernels.py``
+times them against the numpy code on real decisions. Compiled on first use and cached on
+disk (``cache=True``).
 """
 
 from __future__ import annotations
+
+import math
 
 import numba
 import numpy as np
@@ -138,3 +145,31 @@ def round_layout(landmark_idx: np.ndarray, pose_idx: np.ndarray, gain: np.ndarra
         terms[3, q], terms[4, q], terms[5, q], terms[6, q] = noise[i, 0, 1], -b, -a, a * b
         terms[7, q], terms[8, q], terms[9, q] = noise[i, 1, 1], -2.0 * b, b * b
     return offsets, landmarks, rows_pose, terms
+
+
+@numba.njit(cache=True)
+def window_pairs(xy: np.ndarray, origin_x: float, origin_y: float, resolution: float, nx: int, ny: int,
+                 window: np.ndarray, landmark_xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(pose_index, landmark_index)`` of the landmark cells of a ``ny x nx`` grid (flat
+    centres ``landmark_xy``) in each pose's ``window`` of ``[diy, dix]`` offsets around its
+    cell (``floor`` of the offset from ``origin`` over ``resolution``) and within ``radius``
+    (the norm's sum of squares, then its root): what
+    :meth:`~explore_rl.planning.virtual_map.VirtualMap.in_range_pairs_reference` finds, in
+    its order (pose, then window slot)."""
+    pose_idx = np.empty(len(xy) * len(window), dtype=np.int64)
+    landmark_idx = np.empty(len(xy) * len(window), dtype=np.int64)
+    found = 0
+    for k in range(len(xy)):
+        x, y = xy[k, 0], xy[k, 1]
+        ix = np.int64(math.floor((x - origin_x) / resolution))
+        iy = np.int64(math.floor((y - origin_y) / resolution))
+        for w in range(len(window)):
+            cy, cx = iy + window[w, 0], ix + window[w, 1]
+            if cy < 0 or cy >= ny or cx < 0 or cx >= nx:
+                continue
+            index = cy * nx + cx
+            dx, dy = landmark_xy[index, 0] - x, landmark_xy[index, 1] - y
+            if math.sqrt(dx * dx + dy * dy) <= radius:
+                pose_idx[found], landmark_idx[found] = k, index
+                found += 1
+    return pose_idx[:found], landmark_idx[:found]

@@ -19,6 +19,7 @@ import numpy as np
 from explore_rl.grid import GridSpec
 from explore_rl.mapping.visibility import line_of_sight, line_of_sight_by_length
 from explore_rl.planning.config import VirtualMapConfig
+from explore_rl.planning.compiled import window_pairs
 from explore_rl.sorting import stable_argsort
 
 # ---------------------------------------------------------------------------- 2x2 algebra
@@ -260,7 +261,16 @@ class VirtualMap:
 
     def in_range_pairs(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(pose_index, landmark_index)`` of every landmark within ``sensor_range`` of a
-        pose (``(K, 2)`` or ``(K, 3)``), in pose order, then window order."""
+        pose (``(K, 2)`` or ``(K, 3)``), in pose order, then window order: one compiled
+        loop over each pose's window (:func:`~explore_rl.planning.compiled.window_pairs`),
+        the same pairs as :meth:`in_range_pairs_reference`."""
+        xy = np.ascontiguousarray(np.asarray(poses, float)[:, :2])
+        lg = self.landmark_grid
+        return window_pairs(xy, float(lg.origin[0]), float(lg.origin[1]), float(lg.resolution), int(lg.nx),
+                            int(lg.ny), self._window, self.landmark_xy, float(self.config.sensor_range))
+
+    def in_range_pairs_reference(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`in_range_pairs` by numpy over every pose's whole window."""
         xy = np.asarray(poses, float)[:, :2]
         lg = self.landmark_grid
         cells = lg.world_to_cell(xy)[:, None, :] + self._window[None]

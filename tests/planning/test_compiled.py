@@ -98,3 +98,23 @@ def test_counted_rounds_equal_the_sorted_rounds():
         gain, noise = lever_observations(rng, count)
         assert_same_rounds(Observations(np.sort(rng.integers(0, 40, count)), rng.integers(0, 90, count),
                                         gain, noise))
+
+
+def test_window_pairs_equal_the_numpy_window():
+    """Poses inside, on cell edges, near and beyond the grid's borders: the same pairs, in order."""
+    from explore_rl.grid import GridSpec
+    from explore_rl.planning.config import VirtualMapConfig
+    from explore_rl.planning.virtual_map import VirtualMap
+
+    grid = GridSpec(origin=(-1.0, -2.0), resolution=0.05, shape=(160, 200))
+    vmap = VirtualMap(grid, VirtualMapConfig())
+    rng = np.random.default_rng(7)
+    poses = np.column_stack([rng.uniform(-4.0, 12.0, 400), rng.uniform(-5.0, 9.0, 400), rng.uniform(-3, 3, 400)])
+    poses[:20, :2] = np.round(poses[:20, :2] / 0.5) * 0.5  # on landmark cell edges
+    got, want = vmap.in_range_pairs(poses), vmap.in_range_pairs_reference(poses)
+    assert 1000 < len(want[0]) and len(np.unique(want[0])) < len(poses)  # pairs found; some poses see none
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+    empty = vmap.in_range_pairs(np.zeros((0, 3)))
+    assert empty[0].shape == empty[1].shape == (0,)
