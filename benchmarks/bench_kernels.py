@@ -1,7 +1,7 @@
 """EM's compiled kernels against their numpy baselines, on the inputs of real decisions.
 
 An EM exploration of the office (``slam=model``, the bench_env setting) is driven with the
-inputs of three kernels recorded at every decision (the decision context's and the
+inputs of four kernels recorded at every decision (the decision context's and the
 reward's calls alike):
 
 * ``fusion``: the landmark fusion (:func:`explore_rl.planning.em_fast.fuse_batched`,
@@ -9,12 +9,15 @@ reward's calls alike):
 * ``layout``: the fusion rounds laid out by counting (``FuseRounds.of``) against numpy's
   sorts (``FuseRounds.of_reference``);
 * ``line_of_sight``: the segments near blocked cells walked by the compiled loop
-  (``line_of_sight_by_length``) against its numpy batches (``compiled=False``).
+  (``line_of_sight_by_length``) against its numpy batches (``compiled=False``);
+* ``in_range``: the virtual landmarks in range of each pose by a compiled walk of its
+  window (``VirtualMap.in_range_pairs``) against numpy over every window
+  (``in_range_pairs_reference``).
 
 Each recorded call is then run by both (after one warm-up call of each, in alternation,
 ``REPEATS`` times) and the answers must be the same arrays (``same``). Reported per
 kernel: ms per decision of each (the sum over its calls), their ratio (``speedup``), the
-calls' sizes; and ``ms_saved_per_decision`` over the three. The whole decision is timed
+calls' sizes; and ``ms_saved_per_decision`` over the four. The whole decision is timed
 by bench_env and bench_decision_real (both run against the previous code to show it).
 
     python benchmarks/bench_kernels.py [--quick | --smoke]
@@ -37,6 +40,7 @@ import explore_rl.planning.virtual_map as virtual_map  # noqa: E402
 from explore_rl.config import load_config  # noqa: E402
 from explore_rl.mapping.visibility import line_of_sight_by_length  # noqa: E402
 from explore_rl.planning.em_fast import FuseRounds, fuse_batched, fuse_batched_reference  # noqa: E402
+from explore_rl.planning.virtual_map import VirtualMap  # noqa: E402
 from explore_rl.runner import Explorer  # noqa: E402
 
 REPEATS = 3
@@ -44,9 +48,14 @@ REPEATS = 3
 
 def record_calls(decisions: int) -> dict[str, list[tuple]]:
     """Drive the office with EM for ``decisions`` decisions; the arguments of every call of
-    the three kernels (copies), by kernel."""
-    calls: dict[str, list[tuple]] = {"fusion": [], "layout": [], "line_of_sight": []}
+    the four kernels (copies), by kernel."""
+    calls: dict[str, list[tuple]] = {"fusion": [], "layout": [], "line_of_sight": [], "in_range": []}
     counted = FuseRounds.of.__func__
+    walked = VirtualMap.in_range_pairs
+
+    def in_range(vmap, poses):
+        calls["in_range"].append((vmap, np.array(poses)))
+        return walked(vmap, poses)
 
     def fusion(rounds, pose_covs, initial):
         calls["fusion"].append((rounds, pose_covs.copy(), initial.copy()))
@@ -66,6 +75,7 @@ def record_calls(decisions: int) -> dict[str, list[tuple]]:
     try:
         em.fuse_batched = fusion
         FuseRounds.of = classmethod(layout)
+        VirtualMap.in_range_pairs = in_range
         virtual_map.line_of_sight_by_length = revisits.line_of_sight_by_length = sight
         config = load_config(["scene=office", "slam=model", "seed=0", "policy=em", "explore.progress_bar=false",
                               f"explore.max_decisions={decisions}"])
@@ -73,6 +83,7 @@ def record_calls(decisions: int) -> dict[str, list[tuple]]:
     finally:
         em.fuse_batched, virtual_map.line_of_sight_by_length, revisits.line_of_sight_by_length = saved
         FuseRounds.of = classmethod(counted)
+        VirtualMap.in_range_pairs = walked
     return calls
 
 
@@ -90,6 +101,8 @@ KERNELS = {
     "line_of_sight": (lambda *args: line_of_sight_by_length(*args),
                       lambda *args: line_of_sight_by_length(*args, compiled=False), lambda out: [out],
                       lambda start_xy, *rest: len(start_xy)),
+    "in_range": (VirtualMap.in_range_pairs, VirtualMap.in_range_pairs_reference, list,
+                 lambda vmap, poses: len(poses)),
 }
 
 

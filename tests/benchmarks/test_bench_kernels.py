@@ -7,7 +7,7 @@ from pathlib import Path
 
 from tests.benchmarks.smoke import run_script
 
-KERNELS = ("fusion", "layout", "line_of_sight")
+KERNELS = ("fusion", "layout", "line_of_sight", "in_range")
 
 
 def test_bench_kernels_smoke(tmp_path: Path) -> None:
