@@ -25,10 +25,10 @@ Per candidate with a predicted loop (:func:`loop_update`), instead of copying iS
    columns each when planar and off-plane dofs are decoupled);
 3. the virtual map is fused again from the prior, in the same order and by the same
    covariance intersection as the reference, but for all loop candidates at once
-   (:func:`fuse_batched`: one compiled loop over each landmark's observations for each
-   set; :func:`fuse_batched_reference`, the same in numpy rounds, a round ~20 numpy
-   calls whatever its size, as many rounds as the most-seen landmark has observations,
-   ~150-200 on office graphs). Candidates whose paths agree up to their last loop leave bitwise the
+   (:func:`fuse_batched`: one compiled loop over the rounds for each set;
+   :func:`fuse_batched_reference`, the same in numpy, a round ~20 numpy calls whatever
+   its size, as many rounds as the most-seen landmark has observations, ~150-200 on
+   office graphs). Candidates whose paths agree up to their last loop leave bitwise the
    same old covariances (about a third of them): each distinct set is fused once
    (:func:`distinct`). An observation's covariance ``noise + gain S gain^T`` is a linear
    function of the pose covariance ``S`` (gains ``[-I | lever]``: :func:`lever_terms`),
