@@ -1,4 +1,5 @@
-"""The compiled landmark fusion against the numpy rounds it stands for, exactly."""
+"""The compiled loops of EM's decision (fusion, round layout, in-range pairs) against the numpy code they stand
+for, exactly."""
 
 import numpy as np
 import pytest
