@@ -53,3 +53,29 @@ def test_compare_refuses_bad_arguments_in_one_line(tmp_path, capsys):
     write(tmp_path / "runs", [trial("em", 1, 1.0, [1.0])])
     code, _, err = run_main(SCRIPT, [str(tmp_path / "runs"), "--stored", f"em={tmp_path / 'missing'}"], capsys)
     assert code == 2 and "--stored em=" in err.strip().splitlines()[-1]
+
+
+POOL = "benchmarks/results/decide_time/collect_pool_s81.py"
+
+
+def collect_log(path, ratios: list[float], dps_1: list[float]) -> None:
+    last = {"speedup_async_rounds": ratios, "dps_1_rounds": dps_1, "dps_async_rounds": [r * d for r, d in zip(ratios, dps_1)]}
+    path.write_text("1 worker: ...\n" + json.dumps({"benchmark": "collect"}) + "\n" + json.dumps(last) + "\nuptime\n")
+
+
+def test_collect_pool_pools_the_rounds_of_each_side(tmp_path, capsys):
+    collect_log(tmp_path / "bench_collect_rounds4_before_s81_r1.log", [1.8, 2.0], [3.0, 4.0])
+    collect_log(tmp_path / "bench_collect_rounds4_before_s81_r2.log", [1.9, 1.7], [3.5, 3.5])
+    collect_log(tmp_path / "bench_collect_rounds4_s81_r1.log", [1.5, 1.7], [4.0, 5.0])
+    code, out, err = run_main(POOL, ["--logs", str(tmp_path)], capsys)
+    assert code == 0, err
+    summary = json_lines(out)[-1]
+    assert summary["session80"]["rounds"] == 4 and summary["session80"]["speedup_async"] == pytest.approx(1.85)
+    assert summary["session80"]["speedup_async_ci95"][0] < 1.85 < summary["session80"]["speedup_async_ci95"][1]
+    assert summary["session81"]["rounds"] == 2 and summary["session81"]["speedup_async"] == pytest.approx(1.6)
+    assert summary["session81"]["dps_1"] == [4.0, 5.0] and summary["session81"]["dps_async"] == [6.0, 8.5]
+
+
+def test_collect_pool_refuses_a_folder_without_logs(tmp_path, capsys):
+    code, _, err = run_main(POOL, ["--logs", str(tmp_path)], capsys)
+    assert code != 0 and "no logs match" in err.strip().splitlines()[-1]
