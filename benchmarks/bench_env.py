@@ -219,11 +219,13 @@ def benchmark(args: argparse.Namespace) -> None:
 class PartProfiler:
     """cProfile switched on only inside ``EMPlanner.decision_context`` (context),
     ``EMPlanner.evaluate`` (reward) or ``Explorer.act`` (drive): the functions each part
-    spends its time in."""
+    spends its time in. A part called inside another (``evaluate`` building its own
+    context) counts to the outer one: one profiler runs at a time."""
 
     def __init__(self) -> None:
         self.profiles = {part: cProfile.Profile() for part in ("context", "reward", "drive")}
         self._originals = {}
+        self._active = False
 
     def __enter__(self) -> PartProfiler:
         for part, owner, name in (("context", EMPlanner, "decision_context"), ("reward", EMPlanner, "evaluate"),
@@ -237,14 +239,17 @@ class PartProfiler:
         for (owner, name), original in self._originals.items():
             setattr(owner, name, original)
 
-    @staticmethod
-    def _wrap(profile: cProfile.Profile, method):
+    def _wrap(self, profile: cProfile.Profile, method):
         def wrapped(*args, **kwargs):
+            if self._active:  # inside another part: its profiler is running
+                return method(*args, **kwargs)
+            self._active = True
             profile.enable()
             try:
                 return method(*args, **kwargs)
             finally:
                 profile.disable()
+                self._active = False
         return wrapped
 
     def top(self, part: str) -> str:

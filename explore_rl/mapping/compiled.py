@@ -170,21 +170,20 @@ def flat_voxel_indices(keys: np.ndarray, lower: np.ndarray, ny: int, nz: int) ->
 
 
 @numba.njit(cache=True)
-def segments_clear(start_xy: np.ndarray, unit: np.ndarray, stop: np.ndarray, padded_blocked: np.ndarray,
-                   origin_x: float, origin_y: float, resolution: float, nx: int, ny: int,
-                   step: float) -> np.ndarray:
+def segments_clear(start_xy: np.ndarray, unit: np.ndarray, stop: np.ndarray, samples: np.ndarray,
+                   padded_blocked: np.ndarray, origin_x: float, origin_y: float, resolution: float, nx: int,
+                   ny: int, step: float) -> np.ndarray:
     """Whether each segment is clear: the samples of
-    :func:`~explore_rl.mapping.visibility.line_of_sight` (at ``k * step``, ``k >= 1``, in
-    cell units shifted by the free 1-cell border of ``padded_blocked``, flat, ``(ny + 2) *
-    (nx + 2)``; coordinates clipped to it, then truncated: the same cells as truncating
-    first), walked one segment at a time and only until its first blocked sample or its
-    ``stop``."""
+    :func:`~explore_rl.mapping.visibility.line_of_sight` (at ``k * step``, ``1 <= k <=
+    samples``, in cell units shifted by the free 1-cell border of ``padded_blocked``, flat,
+    ``(ny + 2) * (nx + 2)``; coordinates clipped to it, then truncated: the same cells as
+    truncating first), walked one segment at a time and only until its first blocked
+    sample or its ``stop``."""
     clear = np.ones(len(stop), dtype=np.bool_)
     for i in range(len(stop)):
         col = (start_xy[i, 0] - origin_x) / resolution + 1.0
         row = (start_xy[i, 1] - origin_y) / resolution + 1.0
-        k = 1
-        while True:
+        for k in range(1, samples[i] + 1):
             t = step * k
             if not t < stop[i]:
                 break
@@ -193,5 +192,4 @@ def segments_clear(start_xy: np.ndarray, unit: np.ndarray, stop: np.ndarray, pad
             if padded_blocked[np.int32(y) * (nx + 2) + np.int32(x)]:
                 clear[i] = False
                 break
-            k += 1
     return clear

@@ -125,14 +125,14 @@ def line_of_sight_by_length(
         steepest = np.maximum(np.maximum(np.abs(unit[:, 0]), np.abs(unit[:, 1])), np.finfo(float).tiny)
         stop = np.maximum(length - 0.5 * end_box / steepest, 0.0)
     step = step_fraction * grid.resolution
+    samples = np.maximum(np.ceil(stop / step).astype(np.int64), 1)  # every sample before the stop
     padded = np.pad(blocked, 1)
     maybe = np.flatnonzero(_box_holds_blocked(start_xy, end_xy, padded, grid))
     if compiled:
-        clear[maybe] = _compiled.segments_clear(start_xy[maybe], unit[maybe], stop[maybe], padded.ravel(),
-                                                float(grid.origin[0]), float(grid.origin[1]),
+        clear[maybe] = _compiled.segments_clear(start_xy[maybe], unit[maybe], stop[maybe], samples[maybe],
+                                                padded.ravel(), float(grid.origin[0]), float(grid.origin[1]),
                                                 float(grid.resolution), int(grid.nx), int(grid.ny), step)
         return clear
-    samples = np.maximum(np.ceil(stop / step).astype(np.int64), 1)
     order = maybe[stable_argsort(samples[maybe])]
     padded = padded.ravel()
     for group in np.array_split(order, min(LENGTH_GROUPS, len(order))) if len(order) else []:
