@@ -32,6 +32,14 @@ oversubscribing the cores). The learner's
 update (timed on each 2-worker batch, its weights not sent to the collectors so that the
 work stays the same) shows the collection/update split.
 
+**The machine's ceiling** (``--ceiling``): each round also runs the two workers' batches as
+two independent processes at the same time (each as in the 1-worker run: its env and the
+actor in one process, no collector process, no learner, no IPC; a barrier after each one's
+warm-up batch). ``ceiling`` is their summed decisions/s over the 1-worker run's: what any
+2-worker collector could reach on this machine, the cores' contention (shared caches,
+memory bandwidth, the host) included; ``speedup_async_of_ceiling`` is the async run's
+decisions/s over theirs (1.0: the collector and the learner cost nothing beyond it).
+
 **Paired rounds** (``--rounds``, 4 by default): the 1-worker and the async run are repeated,
 the same work each time, in alternating order (1-worker first in even rounds, async first
 in odd ones), so that the host's drift over minutes (the same 1-worker work took 123 s and
@@ -39,13 +47,15 @@ in odd ones), so that the host's drift over minutes (the same 1-worker work took
 ``speedup_async`` is the mean of the rounds' ratios, ``speedup_async_ci95`` its 95 %
 Student-t interval over rounds; the sync run and the per-batch figures are round 0's.
 
-    python benchmarks/bench_collect.py [--quick | --smoke] [--rounds N]
+    python benchmarks/bench_collect.py [--quick | --smoke] [--rounds N] [--ceiling]
 """
 
 from __future__ import annotations
 
 import copy
+import multiprocessing
 import os
+import queue
 import sys
 import time
 from pathlib import Path
@@ -162,6 +172,52 @@ def async_workers(config, policy, learner: Learner, batches: int) -> dict:
             "batches_handed": sum(map(len, handed.values()))}
 
 
+def alone_in_a_process(worker: int, factory, policy, steps: int, batches: int, threads: int, barrier,
+                       results) -> None:
+    """One worker's batches in a process of its own, as the 1-worker run takes them, timed
+    after the barrier that the other such process waits at too (both warmed up)."""
+    torch.set_num_threads(threads)
+    collector = local_collector(factory, policy, steps)
+    iterator = iter(collector)
+    next(iterator)
+    barrier.wait()
+    actions, seconds = [], []
+    for _ in range(batches):
+        start = time.perf_counter()
+        actions.append(next(iterator)["action"])
+        seconds.append(time.perf_counter() - start)
+    collector.shutdown()
+    results.put((worker, torch.stack(actions).numpy(), seconds))  # by value: this process exits next
+
+
+def independent_workers(config, policy, batches: int) -> dict:
+    """Both workers' batches in two independent processes side by side (:func:`alone_in_a_process`):
+    the actions ``[workers, batches, T]`` and each worker's decisions/s."""
+    context = multiprocessing.get_context("spawn")
+    barrier, results = context.Barrier(WORKERS), context.Queue()
+    processes = [context.Process(target=alone_in_a_process,
+                                 args=(worker, factory, policy, config.algo.steps_per_update, batches,
+                                       config.train.threads, barrier, results))
+                 for worker, factory in enumerate(env_factories(config))]
+    for process in processes:
+        process.start()
+    outcome = []
+    while len(outcome) < len(processes):  # before join: a full queue blocks a child's exit
+        try:
+            outcome.append(results.get(timeout=5))
+        except queue.Empty:
+            failed = [process.exitcode for process in processes if process.exitcode not in (None, 0)]
+            if failed:
+                for process in processes:
+                    process.kill()
+                raise SystemExit(f"an independent worker process failed (exit code {failed[0]}): see its traceback above")
+    for process in processes:
+        process.join()
+    outcome.sort(key=lambda result: result[0])
+    return {"actions": torch.stack([torch.from_numpy(actions) for _, actions, _ in outcome]),
+            "dps_per_worker": [actions.size / sum(seconds) for _, actions, seconds in outcome]}
+
+
 def gated_bound(seconds_1: list[list[float]], max_lag: int) -> float:
     """``async_bound`` with the policy-lag gate: the 1-worker time of both workers' batches
     over the time the gate (``gated_schedule``, updates taking no time) needs to hand out
@@ -185,24 +241,48 @@ def per_cpu_speedup(dps_1: float, cpu_1: list[float], dps_async: float, cpu_asyn
     return round(WORKERS * (dps_async / used_async) / (dps_1 / (sum(cpu_1) / len(cpu_1))), 3)
 
 
-def one_round(config, async_config, policy, learner: Learner, batches: int, async_first: bool) -> dict:
-    """The 1-worker run and the async run on the same work, in the order asked for; their
-    decisions/s and ratio."""
+def one_round(config, async_config, policy, learner: Learner, batches: int, async_first: bool,
+              ceiling: bool) -> dict:
+    """The 1-worker run and the async run on the same work (and with ``ceiling`` the two
+    independent processes), in the order asked for (async first: the reverse order); their
+    decisions/s and ratios."""
+    modes = ["one", "async", "independent"] if ceiling else ["one", "async"]
     runs = {}
-    for mode in (["async", "one"] if async_first else ["one", "async"]):
+    for mode in (modes[::-1] if async_first else modes):
         runs[mode] = (async_workers(async_config, policy, learner, batches) if mode == "async"
+                      else independent_workers(config, policy, batches) if mode == "independent"
                       else one_worker(config, policy, batches))
     actions_1, seconds_1, cpu_1 = runs["one"]
     dps_1 = actions_1.numel() / sum(map(sum, seconds_1))
     dps_async = sum(runs["async"]["dps_per_worker"])
-    return {"actions_1": actions_1, "seconds_1": seconds_1, "cpu_1": cpu_1, "async": runs["async"],
-            "dps_1": dps_1, "dps_async": dps_async, "speedup_async": dps_async / dps_1,
-            "same_actions_async": bool(torch.equal(actions_1, runs["async"]["actions"]))}
+    result = {"actions_1": actions_1, "seconds_1": seconds_1, "cpu_1": cpu_1, "async": runs["async"],
+              "dps_1": dps_1, "dps_async": dps_async, "speedup_async": dps_async / dps_1,
+              "same_actions_async": bool(torch.equal(actions_1, runs["async"]["actions"]))}
+    if ceiling:
+        alone = runs["independent"]
+        dps_independent = sum(alone["dps_per_worker"])
+        result |= {"dps_independent": dps_independent, "ceiling": dps_independent / dps_1,
+                   "speedup_async_of_ceiling": dps_async / dps_independent,
+                   "same_actions_independent": bool(torch.equal(actions_1, alone["actions"]))}
+    return result
+
+
+def ceiling_figures(paired: list[dict]) -> dict:
+    """The rounds' ceiling and the async run's share of it: per round, their mean and 95 % interval."""
+    figures = {"dps_independent_rounds": [round(r["dps_independent"], 3) for r in paired],
+               "same_actions_independent": all(r["same_actions_independent"] for r in paired)}
+    for key in ("ceiling", "speedup_async_of_ceiling"):
+        mean, interval = mean_ci95([r[key] for r in paired])
+        figures |= {key: round(mean, 3), f"{key}_rounds": [round(r[key], 3) for r in paired],
+                    f"{key}_ci95": None if interval is None else [round(v, 3) for v in interval]}
+    return figures
 
 
 def add_rounds(parser) -> None:
     parser.add_argument("--rounds", type=int, default=None, metavar="N",
                         help="paired 1-worker/async rounds (default 4; 1 with --quick or --smoke)")
+    parser.add_argument("--ceiling", action="store_true",
+                        help="each round also runs the two workers as independent processes side by side")
 
 
 def main() -> None:
@@ -221,9 +301,9 @@ def main() -> None:
     torch.manual_seed(0)
     learner = Learner(config, make_env(config).action_spec)
     policy = copy.deepcopy(learner.actor)  # fixed weights: the same work in every run
-    first = one_round(config, async_config, policy, learner, batches, async_first=False)
+    first = one_round(config, async_config, policy, learner, batches, async_first=False, ceiling=args.ceiling)
     actions_2, seconds_2, usage, ms_update = two_workers(config, policy, learner, batches)
-    later = [one_round(config, async_config, policy, learner, batches, async_first=r % 2 == 1)
+    later = [one_round(config, async_config, policy, learner, batches, async_first=r % 2 == 1, ceiling=args.ceiling)
              for r in range(1, rounds)]
     paired = [first, *later]
     speedup_async, speedup_ci = mean_ci95([r["speedup_async"] for r in paired])
@@ -246,6 +326,11 @@ def main() -> None:
               f"async {result['dps_async']:.3f} /s = {result['speedup_async']:.3f}x")
     interval = "" if speedup_ci is None else f", 95 % CI [{speedup_ci[0]:.3f}, {speedup_ci[1]:.3f}]"
     print(f"async over 1 worker, mean of {rounds} paired rounds: {speedup_async:.3f}x{interval}")
+    ceiling = ceiling_figures(paired) if args.ceiling else {}
+    if ceiling:
+        print(f"two independent processes over 1 worker (the machine's ceiling): {ceiling['ceiling']:.3f}x "
+              f"{ceiling['ceiling_ci95']}; async over them {ceiling['speedup_async_of_ceiling']:.3f} "
+              f"{ceiling['speedup_async_of_ceiling_ci95']}")
     emit({"benchmark": "collect", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
           "decisions": decisions, "batches_per_worker": batches, "steps_per_update": config.algo.steps_per_update,
           "same_actions": bool(torch.equal(actions_1, actions_2)),
@@ -266,7 +351,7 @@ def main() -> None:
           "speedup_async_rounds": [round(r["speedup_async"], 3) for r in paired],
           "speedup_async": round(speedup_async, 3),
           "speedup_async_ci95": None if speedup_ci is None else [round(v, 3) for v in speedup_ci],
-          "cpu_1": cpu_1, "speedup_async_per_cpu": per_cpu})
+          "cpu_1": cpu_1, "speedup_async_per_cpu": per_cpu, **ceiling})
 
 
 if __name__ == "__main__":

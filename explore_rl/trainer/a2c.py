@@ -37,6 +37,7 @@ from pathlib import Path
 
 import torch
 from tensordict import TensorDictBase
+from tensordict.nn import set_skip_existing
 from torchrl.collectors import Collector, MultiSyncCollector
 from torchrl.envs.utils import ExplorationType
 from torchrl.objectives import A2CLoss, ValueEstimators
@@ -45,7 +46,8 @@ from explore_rl.config import Config
 from explore_rl.envs.factory import EnvFactory, make_env, policy_seed
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, WORKER
 from explore_rl.graph.features import feature_names
-from explore_rl.models.actor_critic import FEATURE_SCALE, make_actor, make_critic, selected_inputs
+from explore_rl.models.actor_critic import (FEATURE_SCALE, OBSERVATION_KEYS, make_actor, make_critic,
+                                            selected_inputs)
 from explore_rl.models.actor_file import TRAINING_PREFIX, build_actor, read_actor_file
 from explore_rl.models.checkpoint import (Checkpoint, CheckpointError, check_weights, load_checkpoint,
                                            save_checkpoint)
@@ -117,8 +119,10 @@ class Learner:
         self.acting_actor = self.actor if self.device.type == "cpu" else copy.deepcopy(self.actor).cpu()
         self.loss = A2CLoss(self.actor, self.critic, entropy_coeff=algo.entropy_coef,
                             critic_coeff=algo.value_coef, loss_critic_type="smooth_l1")
-        # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace
-        hyper = {"gamma": algo.gamma, "deactivate_vmap": True}
+        # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace;
+        # one chunk: the root and next values in two calls, without first stacking the two
+        # halves of the batch (two copies of every dense adjacency)
+        hyper = {"gamma": algo.gamma, "deactivate_vmap": True, "num_chunks": 1}
         if algo.estimator in ("gae", "td_lambda"):
             hyper["lmbda"] = algo.lmbda
         self.loss.make_value_estimator(ESTIMATOR_TYPES[algo.estimator], **hyper)
@@ -165,8 +169,7 @@ class Learner:
         algo = self.config.algo
         self.set_training(False)
         batch = batch.to(self.device)
-        with torch.no_grad():
-            batch = self.loss.value_estimator(batch)  # advantage + value target
+        batch = self.value_targets(batch)
         losses = self.loss(batch)
         total = algo.a2c_coef * sum(value for key, value in losses.items() if key.startswith("loss_"))
         distill = self.distill_loss(batch)
@@ -180,6 +183,19 @@ class Learner:
             loss_entropy=losses.get("loss_entropy", zero).item(), loss_distill=distill.item(),
             entropy=losses.get("entropy", zero).item(), grad_norm=grad_norm.item(),
             loss_replay=self.replay(batch))
+
+    def value_targets(self, batch: TensorDictBase) -> TensorDictBase:
+        """``batch`` ``[workers, T]`` with the estimator's advantage and value target, the
+        critic run once per distinct observation (:func:`write_state_values`), not on all
+        ``2 T`` of each row as the estimator would. The estimator gets the batch without its
+        observations (it would stack both halves' dense adjacencies to hand the critic,
+        which finds the values written and skips)."""
+        observations = [*OBSERVATION_KEYS, *(("next", key) for key in OBSERVATION_KEYS)]
+        with torch.no_grad():
+            write_state_values(self.critic, batch)
+            with set_skip_existing(True):
+                estimated = self.loss.value_estimator(batch.exclude(*observations))
+        return batch.update(estimated)
 
     def gradient_step(self, loss: torch.Tensor) -> tuple[torch.Tensor | None, str]:
         """Backward, clipping and one Adam step on ``loss``: ``(grad_norm, "")``; or, if the
@@ -320,6 +336,35 @@ def local_collector(factory: EnvFactory, actor, steps: int) -> Collector:
     """TorchRL's ``Collector`` of one env in this process, ``steps`` decisions per batch."""
     return Collector(factory, actor, auto_register_policy_transforms=False,  # our env needs none
                      **collector_kwargs(steps))
+
+
+def same_observation(first: TensorDictBase, second: TensorDictBase) -> torch.Tensor:
+    """``[..]`` True where the two hold the same observation (every key the critic reads)."""
+    same = torch.ones(first.shape, dtype=torch.bool, device=first.device)
+    for key in OBSERVATION_KEYS:
+        a, b = first[key], second[key]
+        same &= (a == b).reshape(*first.shape, -1).all(-1)
+    return same
+
+
+def write_state_values(critic, batch: TensorDictBase) -> None:
+    """The critic's ``state_value`` of every root and next observation of ``batch``
+    ``[workers, T]``. Within a row, the next observation of step ``t`` is the root one of
+    ``t + 1`` unless the episode ended at ``t`` (a collector's reset): where the two are
+    the same (checked key by key, exactly) the root value is reused, and only the others
+    (row ends, resets) go through the critic. The values equal a critic call on the whole
+    next half up to the last bits of a differently sized batch (the test's tolerance)."""
+    root_values = critic(batch.select(*OBSERVATION_KEYS))["state_value"]
+    next_obs = batch["next"]
+    shifted = torch.zeros(batch.shape, dtype=torch.bool, device=batch.device)
+    shifted[:, :-1] = same_observation(next_obs[:, :-1], batch[:, 1:])
+    next_values = torch.zeros_like(root_values)
+    next_values[:, :-1] = root_values[:, 1:]
+    fresh = ~shifted
+    if fresh.any():
+        next_values[fresh] = critic(next_obs[fresh].select(*OBSERVATION_KEYS))["state_value"]
+    batch["state_value"] = root_values
+    batch["next", "state_value"] = next_values
 
 
 def as_workers_by_time(batch: TensorDictBase, workers: int) -> TensorDictBase:

@@ -14,7 +14,8 @@ from explore_rl.envs import make_env
 from explore_rl.envs.keys import ACTION_REWARDS, EM_ACTION, NEAREST_ACTION
 from explore_rl.models.actor_critic import Dropout
 from explore_rl.models.actor_file import TRAINING_PREFIX
-from explore_rl.trainer.a2c import Learner, TrainingRun, decision_stakes, make_collector, train
+from explore_rl.trainer.a2c import (Learner, TrainingRun, decision_stakes, make_collector, same_observation, train,
+                                    write_state_values)
 from explore_rl.models.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
 
 # short, cheap episodes: a few frontiers per decision, a small travel budget
@@ -322,6 +323,61 @@ def test_value_targets_bootstrap_at_a_truncation_and_not_at_a_termination(end):
     reward = last["next", "reward"]
     expected = reward + 0.9 * next_value if end == "truncated" else reward
     torch.testing.assert_close(targets, expected, rtol=1e-5, atol=1e-6)
+
+
+def test_the_learners_value_targets_equal_the_estimators_own_critic_calls():
+    """Episodes of 2 decisions in batches of 5: resets inside the row (the next observation
+    is not the following root one) and truncations (bootstrapped). The learner's targets,
+    with root values reused for the next observations that equal them, are the estimator's
+    own (a critic call on each half of the batch) within float noise, and its critic ran
+    on the roots and on just the next observations that differ from the following root."""
+    config = config_for("explore.max_decisions=2", "model.dropout=0.0")
+    torch.manual_seed(0)
+    learner = Learner(config, make_env(config).action_spec)
+    collector = make_collector(config, learner.actor)
+    data = next(iter(collector)).unsqueeze(0)
+    collector.shutdown()
+    assert data["next", "truncated"].sum() >= 2 and not data["next", "done"][0, -1]
+    with torch.no_grad():
+        expected = learner.loss.value_estimator(data.clone())
+    graphs_seen = []
+    learner.critic.module.register_forward_pre_hook(lambda module, args: graphs_seen.append(args[0].shape[:-2].numel()))
+    got = learner.value_targets(data.clone())
+    for key in ["advantage", "value_target", "state_value", ("next", "state_value")]:
+        torch.testing.assert_close(got[key], expected[key], rtol=1e-5, atol=1e-6)
+    resets = int(data["next", "done"][0, :-1].sum())
+    assert graphs_seen == [5, resets + 1]  # the roots, then the reset steps' and the row end's next graphs
+
+
+def test_same_observation_compares_every_key_the_critic_reads():
+    data = batch_of_observations()
+    assert same_observation(data, data.clone()).all()
+    for key in ["x", "adj", "node_mask"]:
+        changed = data.clone()
+        changed[key][0, 1].view(-1)[0] = ~changed[key][0, 1].view(-1)[0] if key == "node_mask" else 7.0
+        assert same_observation(data, changed).tolist() == [[True, False, True]]
+
+
+def test_write_state_values_reuses_a_root_value_only_where_the_observation_is_the_same():
+    """A next observation equal to the following root takes its value; one that differs
+    (here: the last step's, and one altered in the middle) gets the critic's own."""
+    data = batch_of_observations()
+    data["next"] = data.exclude("next").clone()
+    data["next"][:, :-1] = data[:, 1:].exclude("next").clone()
+    data["next", "x"][0, 0] += 1.0  # step 0's next graph is not step 1's root
+    critic = lambda td: td.set("state_value", td["x"].sum((-1, -2)).unsqueeze(-1))  # noqa: E731
+    write_state_values(critic, data)
+    torch.testing.assert_close(data["next", "state_value"], critic(data["next"].clone())["state_value"])
+    torch.testing.assert_close(data["state_value"], critic(data.clone())["state_value"])
+
+
+def batch_of_observations():
+    """A [1, 3] batch of random graph observations (4 nodes)."""
+    from tensordict import TensorDict
+
+    torch.manual_seed(0)
+    return TensorDict({"x": torch.randn(1, 3, 4, 2), "adj": torch.rand(1, 3, 4, 4),
+                       "node_mask": torch.rand(1, 3, 4) > 0.3}, batch_size=[1, 3])
 
 
 def test_a_wall_clock_budget_ends_the_run_after_the_update_that_crosses_it(tmp_path):
