@@ -35,7 +35,8 @@ work stays the same) shows the collection/update split.
 **The machine's ceiling** (``--ceiling``): each round also runs the two workers' batches as
 two independent processes at the same time (each as in the 1-worker run: its env and the
 actor in one process, no collector process, no learner, no IPC; a barrier after each one's
-warm-up batch). ``ceiling`` is their summed decisions/s over the 1-worker run's: what any
+warm-up batch; the one that finishes first goes on collecting until the other has, as the
+async run's faster worker does; their rates summed as ``dps_async``'s). ``ceiling`` is their summed decisions/s over the 1-worker run's: what any
 2-worker collector could reach on this machine, the cores' contention (shared caches,
 memory bandwidth, the host) included; ``speedup_async_of_ceiling`` is the async run's
 decisions/s over theirs (1.0: the collector and the learner cost nothing beyond it).
@@ -172,10 +173,12 @@ def async_workers(config, policy, learner: Learner, batches: int) -> dict:
             "batches_handed": sum(map(len, handed.values()))}
 
 
-def alone_in_a_process(worker: int, factory, policy, steps: int, batches: int, threads: int, barrier,
+def alone_in_a_process(worker: int, factory, policy, steps: int, batches: int, threads: int, barrier, stop,
                        results) -> None:
     """One worker's batches in a process of its own, as the 1-worker run takes them, timed
-    after the barrier that the other such process waits at too (both warmed up)."""
+    after the barrier that the other such process waits at too (both warmed up). It goes on
+    collecting after its timed batches until ``stop`` is set (when both have reported), so
+    that the other one never runs alone: as in the async run, whose faster worker goes on."""
     torch.set_num_threads(threads)
     collector = local_collector(factory, policy, steps)
     iterator = iter(collector)
@@ -186,18 +189,20 @@ def alone_in_a_process(worker: int, factory, policy, steps: int, batches: int, t
         start = time.perf_counter()
         actions.append(next(iterator)["action"])
         seconds.append(time.perf_counter() - start)
+    results.put((worker, torch.stack(actions).numpy(), seconds))  # by value, not a shared tensor
+    while not stop.is_set():
+        next(iterator)
     collector.shutdown()
-    results.put((worker, torch.stack(actions).numpy(), seconds))  # by value: this process exits next
 
 
 def independent_workers(config, policy, batches: int) -> dict:
     """Both workers' batches in two independent processes side by side (:func:`alone_in_a_process`):
     the actions ``[workers, batches, T]`` and each worker's decisions/s."""
     context = multiprocessing.get_context("spawn")
-    barrier, results = context.Barrier(WORKERS), context.Queue()
+    barrier, stop, results = context.Barrier(WORKERS), context.Event(), context.Queue()
     processes = [context.Process(target=alone_in_a_process,
                                  args=(worker, factory, policy, config.algo.steps_per_update, batches,
-                                       config.train.threads, barrier, results))
+                                       config.train.threads, barrier, stop, results))
                  for worker, factory in enumerate(env_factories(config))]
     for process in processes:
         process.start()
@@ -211,6 +216,7 @@ def independent_workers(config, policy, batches: int) -> dict:
                 for process in processes:
                     process.kill()
                 raise SystemExit(f"an independent worker process failed (exit code {failed[0]}): see its traceback above")
+    stop.set()
     for process in processes:
         process.join()
     outcome.sort(key=lambda result: result[0])
