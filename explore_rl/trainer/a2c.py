@@ -119,10 +119,8 @@ class Learner:
         self.acting_actor = self.actor if self.device.type == "cpu" else copy.deepcopy(self.actor).cpu()
         self.loss = A2CLoss(self.actor, self.critic, entropy_coeff=algo.entropy_coef,
                             critic_coeff=algo.value_coef, loss_critic_type="smooth_l1")
-        # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace;
-        # one chunk: the root and next values in two calls, without first stacking the two
-        # halves of the batch (two copies of every dense adjacency)
-        hyper = {"gamma": algo.gamma, "deactivate_vmap": True, "num_chunks": 1}
+        # the g-U-Net trims padding with a data-dependent size, which torch.vmap cannot trace
+        hyper = {"gamma": algo.gamma, "deactivate_vmap": True}
         if algo.estimator in ("gae", "td_lambda"):
             hyper["lmbda"] = algo.lmbda
         self.loss.make_value_estimator(ESTIMATOR_TYPES[algo.estimator], **hyper)
