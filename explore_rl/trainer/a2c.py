@@ -195,6 +195,13 @@ class Learner:
                 estimated = self.loss.value_estimator(batch.exclude(*observations))
         return batch.update(estimated)
 
+    def value_targets_reference(self, batch: TensorDictBase) -> TensorDictBase:
+        """The same as :meth:`value_targets` by TorchRL's estimator alone, which calls the
+        critic on both halves of the batch (roots and next observations): the reference of
+        the test and of ``benchmarks/bench_update.py``."""
+        with torch.no_grad():
+            return self.loss.value_estimator(batch)
+
     def gradient_step(self, loss: torch.Tensor) -> tuple[torch.Tensor | None, str]:
         """Backward, clipping and one Adam step on ``loss``: ``(grad_norm, "")``; or, if the
         loss or the gradient is not finite, no step and ``(None, why)`` (the NaN guard)."""
