@@ -7,7 +7,8 @@ The batches are the trainer's: two workers' ``algo.steps_per_update`` decisions 
 (``env_factories``, TorchRL's ``Collector`` in this process, the default actor with fixed
 weights), stacked ``[workers, T]`` as the learner gets them. Both sides start from the same
 weights and take the same updates on the same batches, taking turns, one torch thread (the
-learner beside the workers); each figure is the fastest of the repeats. ``same_targets``:
+learner beside the workers); each figure is each batch's fastest of the repeats, averaged over
+the batches (their sizes differ, so the fastest single update would be the smallest batch's). ``same_targets``:
 the two sides' advantages and value targets agree within ``TOLERANCE`` on every batch;
 ``same_losses``: so do the updates' losses (the weights stay equal to that tolerance).
 
@@ -57,22 +58,25 @@ def close(a: torch.Tensor, b: torch.Tensor) -> bool:
 
 
 def timed_updates(learners: dict, data: list, repeats: int) -> tuple[dict, dict]:
-    """Per side, the fastest ms of an update and of its value targets alone, the sides taking
-    turns; and per side the losses of every update."""
-    update_ms, targets_ms, losses = ({name: [] for name in learners} for _ in range(3))
+    """Per side, ms of an update and of its value targets alone: each batch's fastest over the
+    repeats (batches differ: graph sizes, resets), averaged over the batches; the sides take
+    turns. And per side the losses of every update, in order."""
+    update_ms, targets_ms, losses = ({name: [[] for _ in data] for name in learners} for _ in range(3))
     for _ in range(repeats):
         for name, learner in learners.items():
-            for batch in data:
+            for index, batch in enumerate(data):
                 start = time.perf_counter()
                 learner.value_targets(batch.clone())
-                targets_ms[name].append(1e3 * (time.perf_counter() - start))
+                targets_ms[name][index].append(1e3 * (time.perf_counter() - start))
                 start = time.perf_counter()
                 stats = learner.update(batch.clone())
-                update_ms[name].append(1e3 * (time.perf_counter() - start))
-                losses[name].append([stats.loss_objective, stats.loss_critic])
-    fastest = {f"{kind}_ms{'' if name == 'fast' else '_reference'}": round(min(times[name]), 1)
-               for kind, times in (("update", update_ms), ("targets", targets_ms)) for name in learners}
-    return fastest, losses
+                update_ms[name][index].append(1e3 * (time.perf_counter() - start))
+                losses[name][index].append([stats.loss_objective, stats.loss_critic])
+    per_update = {f"{kind}_ms{'' if name == 'fast' else '_reference'}":
+                  round(sum(map(min, times[name])) / len(data), 1)
+                  for kind, times in (("update", update_ms), ("targets", targets_ms)) for name in learners}
+    return per_update, {name: [loss for repeat in zip(*per_batch) for loss in repeat]
+                        for name, per_batch in losses.items()}
 
 
 def main() -> None:
@@ -91,18 +95,18 @@ def main() -> None:
     for batch in data:
         got, expected = fast.value_targets(batch.clone()), reference.value_targets(batch.clone())
         same_targets &= all(close(got[key], expected[key]) for key in ("advantage", "value_target"))
-    fastest, losses = timed_updates({"fast": fast, "reference": reference}, data, repeats)
+    per_update, losses = timed_updates({"fast": fast, "reference": reference}, data, repeats)
     same_losses = close(torch.tensor(losses["fast"]), torch.tensor(losses["reference"]))
     resets = sum(int(batch["next", "done"][:, :-1].sum()) for batch in data)
-    speedup = fastest["update_ms_reference"] / fastest["update_ms"]
-    print(f"update: {fastest['update_ms']:.0f} ms, reference {fastest['update_ms_reference']:.0f} ms "
-          f"({speedup:.2f}x); value targets {fastest['targets_ms']:.0f} ms, reference "
-          f"{fastest['targets_ms_reference']:.0f} ms; same targets {same_targets}, same losses {same_losses}")
+    speedup = per_update["update_ms_reference"] / per_update["update_ms"]
+    print(f"update: {per_update['update_ms']:.0f} ms, reference {per_update['update_ms_reference']:.0f} ms "
+          f"({speedup:.2f}x); value targets {per_update['targets_ms']:.0f} ms, reference "
+          f"{per_update['targets_ms_reference']:.0f} ms; same targets {same_targets}, same losses {same_losses}")
     emit({"benchmark": "update", "quick": args.quick, "smoke": args.smoke, "machine": machine(),
           "batches": len(data), "batch_shape": list(data[0].shape), "resets_inside_rows": resets,
-          "nodes_max": int(max(batch["node_mask"].sum(-1).max() for batch in data)), **fastest,
+          "nodes_max": int(max(batch["node_mask"].sum(-1).max() for batch in data)), **per_update,
           "speedup": round(speedup, 3),
-          "targets_speedup": round(fastest["targets_ms_reference"] / fastest["targets_ms"], 3),
+          "targets_speedup": round(per_update["targets_ms_reference"] / per_update["targets_ms"], 3),
           "same_targets": same_targets, "same_losses": same_losses})
 
 

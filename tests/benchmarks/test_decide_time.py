@@ -76,6 +76,26 @@ def test_collect_pool_pools_the_rounds_of_each_side(tmp_path, capsys):
     assert summary["session81"]["dps_1"] == [4.0, 5.0] and summary["session81"]["dps_async"] == [6.0, 8.5]
 
 
+def test_collect_pool_pools_named_sides_and_their_ceilings(tmp_path, capsys):
+    collect_log(tmp_path / "a_r1.log", [1.8, 2.0], [3.0, 4.0])
+    ceiling = {"ceiling_rounds": [2.0, 1.9, 2.1], "speedup_async_of_ceiling_rounds": [0.9, 0.8, 1.0]}
+    (tmp_path / "b_r1.log").write_text(json.dumps({"speedup_async_rounds": [1.5, 1.7, 1.6], "dps_1_rounds": [4.0] * 3,
+                                                   "dps_async_rounds": [6.0] * 3, **ceiling}) + "\n")
+    code, out, err = run_main(POOL, ["--logs", str(tmp_path), "--side", "old=a_r*.log", "--side", "new=b_r*.log"], capsys)
+    assert code == 0, err
+    summary = json_lines(out)[-1]
+    assert summary["old"]["speedup_async"] == pytest.approx(1.9) and "ceiling" not in summary["old"]
+    assert summary["new"]["ceiling"]["rounds"] == 3 and summary["new"]["ceiling"]["mean"] == pytest.approx(2.0)
+    assert summary["new"]["speedup_async_of_ceiling"]["mean"] == pytest.approx(0.9)
+    low, high = summary["new"]["speedup_async_of_ceiling"]["ci95"]
+    assert low < 0.9 < high
+
+
+def test_collect_pool_refuses_a_side_without_a_pattern(tmp_path, capsys):
+    code, _, err = run_main(POOL, ["--logs", str(tmp_path), "--side", "session82"], capsys)
+    assert code != 0 and "give NAME=GLOB" in err.strip().splitlines()[-1]
+
+
 def test_collect_pool_refuses_a_folder_without_logs(tmp_path, capsys):
     code, _, err = run_main(POOL, ["--logs", str(tmp_path)], capsys)
     assert code != 0 and "no logs match" in err.strip().splitlines()[-1]
