@@ -62,16 +62,19 @@ def timed_updates(learners: dict, data: list, repeats: int) -> tuple[dict, dict]
     repeats (batches differ: graph sizes, resets), averaged over the batches; the sides take
     turns. And per side the losses of every update, in order."""
     update_ms, targets_ms, losses = ({name: [[] for _ in data] for name in learners} for _ in range(3))
-    for _ in range(repeats):
+    for _ in range(repeats):  # the updates alone, as the trainer takes them
+        for name, learner in learners.items():
+            for index, batch in enumerate(data):
+                start = time.perf_counter()
+                stats = learner.update(batch.clone())
+                update_ms[name][index].append(1e3 * (time.perf_counter() - start))
+                losses[name][index].append([stats.loss_objective, stats.loss_critic])
+    for _ in range(repeats):  # then the value targets alone
         for name, learner in learners.items():
             for index, batch in enumerate(data):
                 start = time.perf_counter()
                 learner.value_targets(batch.clone())
                 targets_ms[name][index].append(1e3 * (time.perf_counter() - start))
-                start = time.perf_counter()
-                stats = learner.update(batch.clone())
-                update_ms[name][index].append(1e3 * (time.perf_counter() - start))
-                losses[name][index].append([stats.loss_objective, stats.loss_critic])
     per_update = {f"{kind}_ms{'' if name == 'fast' else '_reference'}":
                   round(sum(map(min, times[name])) / len(data), 1)
                   for kind, times in (("update", update_ms), ("targets", targets_ms)) for name in learners}
