@@ -28,8 +28,8 @@ stage_benches() {
 }
 QUICK="bench_building bench_collect bench_decision bench_decision_real bench_drive bench_env bench_explore bench_frontends
   bench_import bench_lidar bench_policy bench_slam bench_sorting study_buildings study_fidelity study_inflation
-  study_keyframes study_ordering study_safety sweep_alpha bench_kernels"  # session 60's list (the rest need data
-  # folders) + bench_sorting (session 66) + bench_kernels (session 81)
+  study_keyframes study_ordering study_safety sweep_alpha bench_kernels bench_update"  # session 60's list (the rest
+  # need data folders) + bench_sorting (session 66) + bench_kernels (session 81) + bench_update (session 82)
 stage_quick() {
   out=${QUICK_LOG:-$HERE/../suite_time/quick_all_s66.log}  # QUICK_LOG: another session's log
   : > $out
