@@ -202,7 +202,8 @@ def independent_workers(config, policy, batches: int) -> dict:
     barrier, stop, results = context.Barrier(WORKERS), context.Event(), context.Queue()
     processes = [context.Process(target=alone_in_a_process,
                                  args=(worker, factory, policy, config.algo.steps_per_update, batches,
-                                       config.train.threads, barrier, stop, results))
+                                       config.train.threads, barrier, stop, results),
+                                 daemon=True)  # they end with this process, even if it is interrupted
                  for worker, factory in enumerate(env_factories(config))]
     for process in processes:
         process.start()
